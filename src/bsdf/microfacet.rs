@@ -1,0 +1,88 @@
+//! The GGX (Trowbridge-Reitz) microfacet distribution: D, height-correlated Smith masking,
+//! and sampling of visible normals (Dupuy and Benyoub 2023, "Sampling Visible GGX Normals
+//! with Spherical Caps"), isotropic, in the local frame.
+
+use glam::{Vec2, Vec3};
+use std::f32::consts::PI;
+
+/// Isotropic GGX with roughness parameter alpha (glTF: alpha = roughness^2).
+#[derive(Clone, Copy, Debug)]
+pub struct Ggx {
+    /// Width of the distribution.
+    pub alpha: f32,
+}
+
+impl Ggx {
+    /// Normal distribution D(h) for a unit half vector h.
+    pub fn d(&self, h: Vec3) -> f32 {
+        if h.z <= 0.0 {
+            return 0.0;
+        }
+        let a2 = self.alpha * self.alpha;
+        let k = h.z * h.z * (a2 - 1.0) + 1.0;
+        a2 / (PI * k * k)
+    }
+
+    /// Smith's Lambda(w) for GGX.
+    pub fn lambda(&self, w: Vec3) -> f32 {
+        let z2 = w.z * w.z;
+        let tan2 = (1.0 - z2).max(0.0) / z2;
+        0.5 * ((1.0 + self.alpha * self.alpha * tan2).sqrt() - 1.0)
+    }
+
+    /// Smith masking G1(w).
+    pub fn g1(&self, w: Vec3) -> f32 {
+        1.0 / (1.0 + self.lambda(w))
+    }
+
+    /// Height-correlated masking-shadowing G2(wo, wi) = 1 / (1 + Lambda(wo) + Lambda(wi)).
+    pub fn g2(&self, wo: Vec3, wi: Vec3) -> f32 {
+        1.0 / (1.0 + self.lambda(wo) + self.lambda(wi))
+    }
+
+    /// A half vector distributed as the normals visible from `wo` (wo.z > 0).
+    pub fn sample_visible_normal(&self, wo: Vec3, u: Vec2) -> Vec3 {
+        let wo_std = Vec3::new(wo.x * self.alpha, wo.y * self.alpha, wo.z).normalize();
+        let phi = 2.0 * PI * u.x;
+        let z = (1.0 - u.y) * (1.0 + wo_std.z) - wo_std.z;
+        let sin_theta = (1.0 - z * z).clamp(0.0, 1.0).sqrt();
+        let cap = Vec3::new(sin_theta * phi.cos(), sin_theta * phi.sin(), z);
+        let h_std = cap + wo_std;
+        Vec3::new(h_std.x * self.alpha, h_std.y * self.alpha, h_std.z.max(0.0)).normalize()
+    }
+
+    /// Pdf of the direction wi = reflect(wo, h) when h is sampled by
+    /// `sample_visible_normal`: G1(wo) D(h) / (4 cos theta_o).
+    pub fn pdf_reflect(&self, wo: Vec3, wi: Vec3) -> f32 {
+        let h = (wo + wi).normalize_or_zero();
+        if h == Vec3::ZERO || wo.z <= 0.0 {
+            return 0.0;
+        }
+        self.g1(wo) * self.d(h) / (4.0 * wo.z)
+    }
+}
+
+/// Mirror reflection of `wo` about `h`.
+pub fn reflect(wo: Vec3, h: Vec3) -> Vec3 {
+    2.0 * wo.dot(h) * h - wo
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn d_is_normalised_over_projected_area() {
+        for alpha in [0.1f32, 0.5, 1.0] {
+            let g = Ggx { alpha };
+            let n = 4000;
+            let mut sum = 0.0f64;
+            for i in 0..n {
+                let cos_t = (i as f32 + 0.5) / n as f32;
+                let h = Vec3::new((1.0 - cos_t * cos_t).sqrt(), 0.0, cos_t);
+                sum += (g.d(h) * cos_t) as f64 * 2.0 * PI as f64 / n as f64;
+            }
+            assert!((sum - 1.0).abs() < 2e-3, "alpha {alpha}: {sum}");
+        }
+    }
+}

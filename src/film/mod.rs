@@ -1,0 +1,7 @@
+//! The film: per-pixel sums owned by tiles, and turning them into images.
+
+pub mod accum;
+pub mod output;
+pub mod tonemap;
+
+pub use accum::{Film, Tile};

@@ -1,0 +1,7 @@
+//! Estimators of the rendering equation: render settings and the path tracer.
+
+pub mod path;
+pub mod settings;
+
+pub use path::{PathOutput, SampleFn, kernel};
+pub use settings::{LightSampling, PixelSampling, Settings};

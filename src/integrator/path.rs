@@ -1,0 +1,281 @@
+//! The path tracer (textbook section 10.7): one BSDF-sampled direction per bounce, with
+//! importance sampling (10.8), explicit light sampling (10.9) or MIS, and Russian roulette.
+//! Monomorphised over the scene's `Features`, so absent effects cost nothing.
+
+use super::settings::{LightSampling, PixelSampling, Settings};
+use crate::bsdf::{Bsdf, Strategy};
+use crate::math::{
+    float::{interpolation_error, offset_ray_origin},
+    frame::Frame,
+    sampler::{Sampler, hash3},
+    warp,
+};
+use crate::scene::{
+    Features, Scene, Surface,
+    camera::RayGenerator,
+    geometry::Ray,
+    light::{LightRef, PunctualKind},
+};
+use glam::{UVec2, Vec2, Vec3};
+
+/// The radiance one pixel sample carries, and how many rays it traced.
+#[derive(Clone, Copy, Debug)]
+pub struct PathOutput {
+    /// Radiance estimate (may be NaN or infinite if something went wrong; the film drops it).
+    pub radiance: Vec3,
+    /// Camera, bounce and shadow rays traced.
+    pub rays: u32,
+}
+
+/// One pixel sample: (scene, settings, camera rays, pixel, sample index) -> radiance.
+/// A pure function of its arguments.
+pub type SampleFn = fn(&Scene, &Settings, &RayGenerator, UVec2, u64) -> PathOutput;
+
+macro_rules! kernels {
+    ($f:expr; $(($e:literal, $p:literal, $t:literal, $g:literal)),* $(,)?) => {
+        match ($f.emissive, $f.punctual, $f.textures, $f.glossy) {
+            $(($e, $p, $t, $g) => sample_pixel::<$e, $p, $t, $g> as SampleFn,)*
+        }
+    };
+}
+
+/// The path-tracing kernel specialised for a feature set.
+pub fn kernel(features: Features) -> SampleFn {
+    kernels!(features;
+        (false, false, false, false), (false, false, false, true),
+        (false, false, true, false), (false, false, true, true),
+        (false, true, false, false), (false, true, false, true),
+        (false, true, true, false), (false, true, true, true),
+        (true, false, false, false), (true, false, false, true),
+        (true, false, true, false), (true, false, true, true),
+        (true, true, false, false), (true, true, false, true),
+        (true, true, true, false), (true, true, true, true),
+    )
+}
+
+/// Offset of a sample inside its pixel, in [0, 1)^2, per the pixel-sampling mode.
+fn pixel_offset(settings: &Settings, pixel: UVec2, index: u64, sampler: &mut Sampler) -> Vec2 {
+    let jitter = sampler.next_2d();
+    let k = settings.strata.max(1) as u64;
+    let cells = k * k;
+    let cell = |c: u64| Vec2::new((c % k) as f32, (c / k) as f32);
+    match settings.pixel_sampling {
+        PixelSampling::Random => jitter,
+        PixelSampling::Stratified => {
+            let round = index / cells;
+            let rotation = hash3((pixel.x as u64) << 32 | pixel.y as u64, round, settings.seed) % cells;
+            (cell((index % cells + rotation) % cells) + jitter) / k as f32
+        }
+        PixelSampling::Grid => (cell(index % cells) + Vec2::splat(0.5)) / k as f32,
+    }
+}
+
+fn sample_pixel<const E: bool, const P: bool, const T: bool, const G: bool>(
+    scene: &Scene,
+    settings: &Settings,
+    camera: &RayGenerator,
+    pixel: UVec2,
+    index: u64,
+) -> PathOutput {
+    let mut sampler = Sampler::new(pixel, index, settings.seed);
+    let film = pixel.as_vec2() + pixel_offset(settings, pixel, index, &mut sampler);
+    let mut out = radiance::<E, P, T, G>(scene, settings, camera.ray(film), &mut sampler);
+    if let Some(c) = settings.firefly_clamp {
+        let m = out.radiance.max_element();
+        if m > c {
+            out.radiance *= c / m;
+        }
+    }
+    out
+}
+
+/// Power heuristic with exponent 2 (Veach 1997): weight of the strategy with pdf `a`.
+fn power_heuristic(a: f32, b: f32) -> f32 {
+    let (a2, b2) = (a * a, b * b);
+    if a2 + b2 > 0.0 { a2 / (a2 + b2) } else { 0.0 }
+}
+
+/// Where the previous bounce sampled its direction from, for MIS on emitters hit later.
+struct PrevBounce {
+    pdf: f32,
+}
+
+fn radiance<const E: bool, const P: bool, const T: bool, const G: bool>(
+    scene: &Scene,
+    settings: &Settings,
+    mut ray: Ray,
+    sampler: &mut Sampler,
+) -> PathOutput {
+    let strategy = if settings.importance_sampling { Strategy::Importance } else { Strategy::Uniform };
+    let mut radiance = Vec3::ZERO;
+    let mut throughput = Vec3::ONE;
+    let mut rays = 0u32;
+    let mut prev: Option<PrevBounce> = None;
+    let mut depth = 0u32;
+    loop {
+        rays += 1;
+        let Some(hit) = scene.geometry.intersect(&ray) else { break };
+        let surface = scene.surface(&hit);
+        let wo_world = -ray.d;
+        let front = surface.ng.dot(wo_world) > 0.0;
+        let material = &scene.materials[surface.material as usize];
+
+        // Emission: emitters radiate from their front side only.
+        if E && front && material.is_emissive() {
+            let le = material.emission::<T>(&scene.textures, &scene.images, surface.uv);
+            let weight = match (settings.light_sampling, &prev) {
+                (LightSampling::Off, _) | (_, None) => 1.0,
+                (LightSampling::Explicit, Some(_)) => 0.0,
+                (LightSampling::Mis, Some(b)) => {
+                    let cos_light = surface.ng.dot(wo_world);
+                    let area = scene.triangle_area(surface.tri);
+                    let pdf_light = scene.light_sampler.triangle_pmf(surface.tri) * hit.t * hit.t / (cos_light * area);
+                    power_heuristic(b.pdf, pdf_light)
+                }
+            };
+            radiance += throughput * le * weight;
+        }
+        if depth == settings.max_depth {
+            break;
+        }
+
+        // Shading frame, turned to the side the ray arrived from (two-sided shading); a
+        // shading normal on the other side of the surface falls back to the geometric one.
+        let ng = if front { surface.ng } else { -surface.ng };
+        let ns = if front { surface.ns } else { -surface.ns };
+        let ns = if ns.dot(ng) > 0.0 { ns } else { ng };
+        let frame = Frame::from_normal(ns);
+        let wo = frame.to_local(wo_world);
+        let bsdf = material.bsdf::<T, G>(&scene.textures, &scene.images, surface.uv);
+
+        // Light sampling: one shadow ray towards a light chosen by power.
+        if (E || P) && settings.light_sampling != LightSampling::Off {
+            let shade = Shading { surface: &surface, ng, frame: &frame, wo, bsdf: &bsdf, strategy };
+            let (l, traced) = sample_light::<E, P, T>(scene, settings, &shade, sampler);
+            radiance += throughput * l;
+            rays += traced as u32;
+        }
+
+        // BSDF sampling: the direction of the next segment.
+        let u_lobe = sampler.next_1d();
+        let u = sampler.next_2d();
+        let Some(bs) = bsdf.sample(wo, u_lobe, u, strategy) else { break };
+        let wi = frame.to_world(bs.wi);
+        if wi.dot(ng) <= 0.0 {
+            break;
+        }
+        throughput *= bs.weight;
+        prev = Some(PrevBounce { pdf: bs.pdf });
+        ray = Ray { o: offset_ray_origin(surface.p, surface.p_error, ng, wi), d: wi, tmax: f32::INFINITY };
+        depth += 1;
+
+        // Termination: Russian roulette on the throughput, survival capped below 1.
+        let u_rr = sampler.next_1d();
+        if depth >= settings.rr_depth {
+            let survive = throughput.max_element().min(0.95);
+            if u_rr >= survive {
+                break;
+            }
+            throughput /= survive;
+        }
+    }
+    PathOutput { radiance, rays }
+}
+
+/// What light sampling needs to know about the shading point.
+struct Shading<'a> {
+    surface: &'a Surface,
+    ng: Vec3,
+    frame: &'a Frame,
+    wo: Vec3,
+    bsdf: &'a Bsdf,
+    strategy: Strategy,
+}
+
+impl Shading<'_> {
+    /// f |cos| towards world direction `wi`, zero below the geometric surface.
+    fn eval(&self, wi: Vec3) -> Vec3 {
+        if wi.dot(self.ng) <= 0.0 {
+            return Vec3::ZERO;
+        }
+        self.bsdf.eval_cos(self.wo, self.frame.to_local(wi))
+    }
+
+    /// Origin for a ray leaving towards `w`.
+    fn origin(&self, w: Vec3) -> Vec3 {
+        offset_ray_origin(self.surface.p, self.surface.p_error, self.ng, w)
+    }
+}
+
+/// Direct light from one light chosen in proportion to power: the estimate and whether a
+/// shadow ray was traced. Area lights are sampled uniformly by area and converted to solid
+/// angle: Le f cos_s cos_l / (d^2 p_area p_select), with no clamp.
+fn sample_light<const E: bool, const P: bool, const T: bool>(
+    scene: &Scene,
+    settings: &Settings,
+    shade: &Shading,
+    sampler: &mut Sampler,
+) -> (Vec3, bool) {
+    let u_select = sampler.next_1d();
+    let u = sampler.next_2d();
+    let Some((light, pmf)) = scene.light_sampler.sample(u_select) else { return (Vec3::ZERO, false) };
+    match light {
+        LightRef::Triangle(tri) if E => {
+            let p = scene.geometry.positions(tri);
+            let attrs = scene.geometry.attrs(tri);
+            let b = warp::uniform_triangle(u);
+            let q = p[0] * b[0] + p[1] * b[1] + p[2] * b[2];
+            let to_light = q - shade.surface.p;
+            let dist2 = to_light.length_squared();
+            let wi = to_light / dist2.sqrt();
+            let cos_light = -wi.dot(attrs.ng);
+            if cos_light <= 0.0 || !wi.is_finite() {
+                return (Vec3::ZERO, false);
+            }
+            let f = shade.eval(wi);
+            if f == Vec3::ZERO {
+                return (Vec3::ZERO, false);
+            }
+            let material = &scene.materials[attrs.material as usize];
+            let uv = attrs.uvs[0] * b[0] + attrs.uvs[1] * b[1] + attrs.uvs[2] * b[2];
+            let le = material.emission::<T>(&scene.textures, &scene.images, uv);
+            let pdf = pmf * dist2 / (cos_light * scene.triangle_area(tri));
+            let weight = match settings.light_sampling {
+                LightSampling::Mis => {
+                    power_heuristic(pdf, shade.bsdf.pdf(shade.wo, shade.frame.to_local(wi), shade.strategy))
+                }
+                _ => 1.0,
+            };
+            let origin = shade.origin(wi);
+            let target = offset_ray_origin(q, interpolation_error(b, *p), attrs.ng, -wi);
+            let shadow = Ray { o: origin, d: target - origin, tmax: 1.0 };
+            if scene.geometry.occluded(&shadow) {
+                return (Vec3::ZERO, true);
+            }
+            (le * f * (weight / pdf), true)
+        }
+        LightRef::Punctual(i) if P => {
+            let light = &scene.lights[i as usize];
+            let (wi, arriving, tmax, target) = match light.kind {
+                PunctualKind::Directional => (-light.direction, light.intensity, f32::INFINITY, None),
+                _ => {
+                    let to_light = light.position - shade.surface.p;
+                    let dist2 = to_light.length_squared();
+                    let wi = to_light / dist2.sqrt();
+                    (wi, light.intensity_towards(-wi) / dist2, 1.0, Some(light.position))
+                }
+            };
+            let f = shade.eval(wi);
+            if f == Vec3::ZERO || arriving == Vec3::ZERO || !wi.is_finite() {
+                return (Vec3::ZERO, false);
+            }
+            let origin = shade.origin(wi);
+            let d = target.map_or(wi, |t| t - origin);
+            if scene.geometry.occluded(&Ray { o: origin, d, tmax }) {
+                return (Vec3::ZERO, true);
+            }
+            (arriving * f / pmf, true)
+        }
+        _ => (Vec3::ZERO, false),
+    }
+}

@@ -1,0 +1,110 @@
+//! Render settings: a plain, comparable struct; any change restarts accumulation.
+
+use std::fmt;
+
+/// How camera rays sample the pixel's area.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum PixelSampling {
+    /// Independent uniform positions in the pixel (Monte Carlo).
+    #[default]
+    Random,
+    /// Jittered strata: each round of `strata`^2 samples puts one sample in every stratum.
+    /// Every single sample is still uniform over the pixel, so partial rounds stay unbiased.
+    Stratified,
+    /// The textbook's uniform sub-pixel grid (section 10.3, eqs. 4 to 6), evaluated at the
+    /// cell midpoints; deterministic, biased by discretisation, repeats after `strata`^2.
+    Grid,
+}
+
+/// How light sources are found (the textbook's "explicit light sampling", section 10.9).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum LightSampling {
+    /// Only BSDF-sampled rays that happen to hit an emitter find light.
+    Off,
+    /// A shadow ray to one sampled light per hit; emitters hit by BSDF rays after the
+    /// camera ray add nothing, so nothing is counted twice.
+    Explicit,
+    /// Both strategies, combined by multiple importance sampling (power heuristic, Veach 1997).
+    #[default]
+    Mis,
+}
+
+/// Everything that determines the image, besides the scene and the camera.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Settings {
+    /// Image width in pixels.
+    pub width: u32,
+    /// Image height in pixels.
+    pub height: u32,
+    /// Seed of every random stream.
+    pub seed: u64,
+    /// Maximum number of bounces (pbrt-v4's maxdepth: 0 = emitters seen directly, 1 = direct light).
+    pub max_depth: u32,
+    /// Bounce count from which Russian roulette may end a path.
+    pub rr_depth: u32,
+    /// Pixel-area sampling mode.
+    pub pixel_sampling: PixelSampling,
+    /// Strata (and grid cells) per pixel axis for `Stratified` and `Grid`.
+    pub strata: u32,
+    /// Draw directions in proportion to the BSDF (on) or uniformly over the hemisphere (off).
+    pub importance_sampling: bool,
+    /// Light sampling strategy.
+    pub light_sampling: LightSampling,
+    /// Scale down samples whose largest component exceeds this (biased; off by default).
+    pub firefly_clamp: Option<f32>,
+    /// Stop accumulating at this many samples per pixel (None: keep refining).
+    pub target_spp: Option<u32>,
+}
+
+impl Default for Settings {
+    fn default() -> Self {
+        Self {
+            width: 512,
+            height: 512,
+            seed: 0,
+            max_depth: 7,
+            rr_depth: 3,
+            pixel_sampling: PixelSampling::default(),
+            strata: 4,
+            importance_sampling: true,
+            light_sampling: LightSampling::default(),
+            firefly_clamp: None,
+            target_spp: None,
+        }
+    }
+}
+
+/// A settings value outside its valid range.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct InvalidSettings(pub String);
+
+impl fmt::Display for InvalidSettings {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for InvalidSettings {}
+
+impl Settings {
+    /// Checks ranges: a non-empty image of at most 16384 pixels a side, at least one
+    /// stratum, a positive finite clamp.
+    pub fn validate(&self) -> Result<(), InvalidSettings> {
+        let bad = |m: String| Err(InvalidSettings(m));
+        if !(1..=16384).contains(&self.width) || !(1..=16384).contains(&self.height) {
+            return bad(format!("image size {}x{} is outside 1..=16384", self.width, self.height));
+        }
+        if !(1..=64).contains(&self.strata) {
+            return bad(format!("strata {} is outside 1..=64", self.strata));
+        }
+        if let Some(c) = self.firefly_clamp
+            && !(c > 0.0 && c.is_finite())
+        {
+            return bad(format!("firefly clamp {c} must be positive and finite"));
+        }
+        if self.target_spp == Some(0) {
+            return bad("target spp must be at least 1".into());
+        }
+        Ok(())
+    }
+}

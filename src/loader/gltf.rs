@@ -1,0 +1,323 @@
+//! glTF 2.0 loading (.gltf with external or embedded buffers, .glb) with the gltf crate:
+//! node transforms flattened into world-space meshes, materials, textures, punctual lights
+//! and cameras. Anything not supported yet is reported once as a warning, never dropped silently.
+
+use super::LoadError;
+use crate::scene::{
+    MeshDesc, SceneDesc,
+    camera::Camera,
+    light::{PunctualKind, PunctualLight},
+    material::Material,
+    texture::{Image, Texture, Wrap},
+};
+use glam::{Mat3, Mat4, Vec2, Vec3};
+use gltf::{Document, Semantic, buffer, image, khr_lights_punctual::Kind, mesh::Mode, texture::WrappingMode};
+use std::collections::BTreeSet;
+use std::path::Path;
+
+/// Extensions whose every part that matters to shading is honoured.
+const SUPPORTED_EXTENSIONS: &[&str] =
+    &["KHR_materials_emissive_strength", "KHR_materials_specular", "KHR_materials_ior", "KHR_lights_punctual"];
+
+/// Deepest node hierarchy accepted (guards against cyclic or absurd files).
+const MAX_NODE_DEPTH: usize = 256;
+
+/// Loads a .gltf or .glb file.
+pub fn load(path: &Path) -> Result<SceneDesc, LoadError> {
+    let fail = |reason: String| LoadError::File { path: path.to_owned(), reason };
+    if !path.is_file() {
+        return Err(fail(if path.exists() { "not a file".into() } else { "no such file".into() }));
+    }
+    let (doc, buffers, images) = gltf::import(path).map_err(|e| fail(describe(&e)))?;
+    let name = path.file_stem().map_or("scene".into(), |s| s.to_string_lossy().into_owned());
+    convert(&doc, &buffers, images, name).map_err(fail)
+}
+
+/// Loads glTF from memory (embedded or GLB buffers only).
+pub fn load_slice(bytes: &[u8], name: &str) -> Result<SceneDesc, LoadError> {
+    let fail = |reason: String| LoadError::File { path: name.into(), reason };
+    let (doc, buffers, images) = gltf::import_slice(bytes).map_err(|e| fail(describe(&e)))?;
+    convert(&doc, &buffers, images, name.into()).map_err(fail)
+}
+
+/// One line for a gltf error (validation errors list only the first).
+fn describe(e: &gltf::Error) -> String {
+    match e {
+        gltf::Error::Validation(errors) => match errors.first() {
+            Some((path, err)) if errors.len() > 1 => {
+                format!("invalid glTF: {path}: {err} (and {} more)", errors.len() - 1)
+            }
+            Some((path, err)) => format!("invalid glTF: {path}: {err}"),
+            None => "invalid glTF".into(),
+        },
+        other => other.to_string().replace('\n', " "),
+    }
+}
+
+/// Collects warnings without repeating one.
+#[derive(Default)]
+struct Warnings(BTreeSet<String>);
+
+impl Warnings {
+    fn add(&mut self, w: impl Into<String>) {
+        self.0.insert(w.into());
+    }
+}
+
+fn convert(
+    doc: &Document,
+    buffers: &[buffer::Data],
+    images: Vec<image::Data>,
+    name: String,
+) -> Result<SceneDesc, String> {
+    let mut warnings = Warnings::default();
+    for ext in doc.extensions_used() {
+        if !SUPPORTED_EXTENSIONS.contains(&ext) {
+            warnings.add(format!("extension {ext} is not supported yet: ignored"));
+        }
+    }
+    let mut desc = SceneDesc { name, ..SceneDesc::default() };
+    desc.images = images.into_iter().map(convert_image).collect();
+    desc.textures = doc.textures().map(convert_texture).collect();
+    desc.materials = doc.materials().map(|m| convert_material(&m, &mut warnings)).collect();
+    let default_material = desc.materials.len() as u32;
+    desc.materials.push(Material { name: "glTF default".into(), ..Material::default() });
+
+    let scene = match doc.default_scene().or_else(|| doc.scenes().next()) {
+        Some(s) => s,
+        None => {
+            warnings.add("the file has no scene: nothing to render");
+            desc.warnings = warnings.0.into_iter().collect();
+            return Ok(desc);
+        }
+    };
+    let mut stack: Vec<(gltf::Node, Mat4, usize)> = scene.nodes().map(|n| (n, Mat4::IDENTITY, 0)).collect();
+    while let Some((node, parent, depth)) = stack.pop() {
+        if depth > MAX_NODE_DEPTH {
+            return Err(format!("node hierarchy deeper than {MAX_NODE_DEPTH} (cyclic?)"));
+        }
+        let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
+        if let Some(mesh) = node.mesh() {
+            for prim in mesh.primitives() {
+                if let Some(m) = convert_primitive(&prim, buffers, world, default_material, &mut warnings)? {
+                    desc.meshes.push(MeshDesc { name: mesh.name().unwrap_or("mesh").into(), ..m });
+                }
+            }
+        }
+        if let Some(light) = node.light() {
+            desc.lights.push(convert_light(&light, world));
+        }
+        if let Some(camera) = node.camera() {
+            match camera.projection() {
+                gltf::camera::Projection::Perspective(p) => {
+                    let (_, rotation, position) = world.to_scale_rotation_translation();
+                    let cam = Camera { position, rotation: rotation.normalize(), yfov: p.yfov() };
+                    desc.cameras.push((camera.name().unwrap_or("camera").into(), cam));
+                }
+                gltf::camera::Projection::Orthographic(_) => {
+                    warnings.add("orthographic cameras are not supported yet: ignored");
+                }
+            }
+        }
+        stack.extend(node.children().map(|c| (c, world, depth + 1)));
+    }
+    desc.warnings = warnings.0.into_iter().collect();
+    Ok(desc)
+}
+
+fn convert_image(data: image::Data) -> Image {
+    use image::Format as F;
+    let (w, h) = (data.width, data.height);
+    let px = &data.pixels;
+    let n = (w * h) as usize;
+    let u16_at = |i: usize| (u16::from_le_bytes([px[2 * i], px[2 * i + 1]]) >> 8) as u8;
+    let f32_at = |i: usize| {
+        let v = f32::from_le_bytes([px[4 * i], px[4 * i + 1], px[4 * i + 2], px[4 * i + 3]]);
+        (v.clamp(0.0, 1.0) * 255.0 + 0.5) as u8
+    };
+    let texels = (0..n)
+        .map(|i| match data.format {
+            F::R8 => [px[i], px[i], px[i], 255],
+            F::R8G8 => [px[2 * i], px[2 * i + 1], 0, 255],
+            F::R8G8B8 => [px[3 * i], px[3 * i + 1], px[3 * i + 2], 255],
+            F::R8G8B8A8 => [px[4 * i], px[4 * i + 1], px[4 * i + 2], px[4 * i + 3]],
+            F::R16 => {
+                let v = u16_at(i);
+                [v, v, v, 255]
+            }
+            F::R16G16 => [u16_at(2 * i), u16_at(2 * i + 1), 0, 255],
+            F::R16G16B16 => [u16_at(3 * i), u16_at(3 * i + 1), u16_at(3 * i + 2), 255],
+            F::R16G16B16A16 => [u16_at(4 * i), u16_at(4 * i + 1), u16_at(4 * i + 2), u16_at(4 * i + 3)],
+            F::R32G32B32FLOAT => [f32_at(3 * i), f32_at(3 * i + 1), f32_at(3 * i + 2), 255],
+            F::R32G32B32A32FLOAT => [f32_at(4 * i), f32_at(4 * i + 1), f32_at(4 * i + 2), f32_at(4 * i + 3)],
+        })
+        .collect();
+    Image { width: w, height: h, texels }
+}
+
+fn convert_texture(t: gltf::Texture) -> Texture {
+    let wrap = |m: WrappingMode| match m {
+        WrappingMode::Repeat => Wrap::Repeat,
+        WrappingMode::MirroredRepeat => Wrap::MirroredRepeat,
+        WrappingMode::ClampToEdge => Wrap::ClampToEdge,
+    };
+    let s = t.sampler();
+    Texture {
+        image: t.source().index() as u32,
+        wrap: [wrap(s.wrap_s()), wrap(s.wrap_t())],
+        nearest: s.mag_filter() == Some(gltf::texture::MagFilter::Nearest),
+    }
+}
+
+/// The texture behind a slot, with warnings for what the slot asks and we do not do yet.
+fn texture_ref(info: Option<gltf::texture::Info>, warnings: &mut Warnings) -> Option<u32> {
+    let info = info?;
+    if info.tex_coord() != 0 {
+        warnings.add("textures on TEXCOORD sets other than 0 are not supported yet: read from set 0");
+    }
+    if info.texture_transform().is_some() {
+        warnings.add("KHR_texture_transform is not supported yet: transforms ignored");
+    }
+    Some(info.texture().index() as u32)
+}
+
+fn convert_material(m: &gltf::Material, warnings: &mut Warnings) -> Material {
+    let pbr = m.pbr_metallic_roughness();
+    let [r, g, b, _] = pbr.base_color_factor();
+    if m.normal_texture().is_some() {
+        warnings.add("normal textures are not supported yet: ignored");
+    }
+    if m.occlusion_texture().is_some() {
+        warnings.add("occlusion textures are ignored (a path tracer computes occlusion)");
+    }
+    if m.alpha_mode() != gltf::material::AlphaMode::Opaque {
+        warnings.add("alpha modes MASK and BLEND are not supported yet: rendered opaque");
+    }
+    let (specular, specular_color) = match m.specular() {
+        Some(s) => {
+            if s.specular_texture().is_some() || s.specular_color_texture().is_some() {
+                warnings.add("KHR_materials_specular textures are not supported yet: factors used");
+            }
+            (s.specular_factor(), Vec3::from(s.specular_color_factor()))
+        }
+        None => (1.0, Vec3::ONE),
+    };
+    Material {
+        name: m.name().map_or_else(|| format!("material {}", m.index().unwrap_or(0)), str::to_owned),
+        base_color: Vec3::new(r, g, b),
+        base_color_tex: texture_ref(pbr.base_color_texture(), warnings),
+        metallic: pbr.metallic_factor(),
+        roughness: pbr.roughness_factor(),
+        metallic_roughness_tex: texture_ref(pbr.metallic_roughness_texture(), warnings),
+        emissive: Vec3::from(m.emissive_factor()) * m.emissive_strength().unwrap_or(1.0),
+        emissive_tex: texture_ref(m.emissive_texture(), warnings),
+        specular,
+        specular_color,
+        ior: m.ior().unwrap_or(1.5),
+    }
+}
+
+/// Checks that an accessor's bytes lie inside its buffer, so reading cannot go out of range.
+fn check_accessor(a: &gltf::Accessor, buffers: &[buffer::Data]) -> Result<(), String> {
+    let check_view = |view: &gltf::buffer::View, offset: usize, count: usize, size: usize| {
+        let stride = view.stride().unwrap_or(size).max(size);
+        let needed = if count == 0 { 0 } else { offset + stride * (count - 1) + size };
+        let buffer_len = buffers.get(view.buffer().index()).map_or(0, |b| b.len());
+        if needed > view.length() || view.offset() + view.length() > buffer_len {
+            return Err(format!("accessor {} reaches past the end of its buffer", a.index()));
+        }
+        Ok(())
+    };
+    if let Some(view) = a.view() {
+        check_view(&view, a.offset(), a.count(), a.size())?;
+    }
+    if let Some(sparse) = a.sparse() {
+        let (idx, val) = (sparse.indices(), sparse.values());
+        check_view(&idx.view(), idx.offset(), sparse.count(), idx.index_type().size())?;
+        check_view(&val.view(), val.offset(), sparse.count(), a.size())?;
+    }
+    Ok(())
+}
+
+fn convert_primitive(
+    prim: &gltf::Primitive,
+    buffers: &[buffer::Data],
+    world: Mat4,
+    default_material: u32,
+    warnings: &mut Warnings,
+) -> Result<Option<MeshDesc>, String> {
+    let mode = prim.mode();
+    if !matches!(mode, Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan) {
+        warnings.add(format!("primitives of mode {mode:?} are not rendered"));
+        return Ok(None);
+    }
+    for (_, accessor) in prim.attributes() {
+        check_accessor(&accessor, buffers)?;
+    }
+    if let Some(i) = prim.indices() {
+        check_accessor(&i, buffers)?;
+    }
+    let reader = prim.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
+    let Some(positions) = reader.read_positions() else {
+        warnings.add("a primitive without POSITION was skipped");
+        return Ok(None);
+    };
+    let positions: Vec<Vec3> = positions.map(|p| world.transform_point3(Vec3::from(p))).collect();
+    let n = positions.len();
+    let normal_matrix = Mat3::from_mat4(world).inverse().transpose();
+    let normals = if prim.get(&Semantic::Normals).is_some() {
+        reader
+            .read_normals()
+            .map(|it| it.map(|v| (normal_matrix * Vec3::from(v)).normalize_or_zero()).collect::<Vec<_>>())
+    } else {
+        None
+    };
+    let uvs = reader.read_tex_coords(0).map(|t| t.into_f32().map(Vec2::from).collect::<Vec<_>>());
+    let raw: Vec<u32> = match reader.read_indices() {
+        Some(i) => i.into_u32().collect(),
+        None => (0..n as u32).collect(),
+    };
+    if let Some(bad) = raw.iter().find(|&&i| i as usize >= n) {
+        return Err(format!("index {bad} is out of range for a primitive with {n} vertices"));
+    }
+    if normals.as_ref().is_some_and(|v| v.len() != n) || uvs.as_ref().is_some_and(|v| v.len() != n) {
+        return Err("vertex attributes of one primitive have different counts".into());
+    }
+    let mut indices = triangulate(mode, &raw);
+    if world.determinant() < 0.0 {
+        indices.chunks_exact_mut(3).for_each(|t| t.swap(1, 2));
+    }
+    let material = prim.material().index().map_or(default_material, |i| i as u32);
+    Ok(Some(MeshDesc { name: String::new(), positions, normals, uvs, indices, material }))
+}
+
+/// Triangle list from a list, strip or fan, keeping counter-clockwise front faces.
+fn triangulate(mode: Mode, idx: &[u32]) -> Vec<u32> {
+    match mode {
+        Mode::TriangleStrip => (0..idx.len().saturating_sub(2))
+            .flat_map(|i| if i % 2 == 0 { [idx[i], idx[i + 1], idx[i + 2]] } else { [idx[i + 1], idx[i], idx[i + 2]] })
+            .collect(),
+        Mode::TriangleFan => (1..idx.len().saturating_sub(1)).flat_map(|i| [idx[0], idx[i], idx[i + 1]]).collect(),
+        _ => idx[..idx.len() / 3 * 3].to_vec(),
+    }
+}
+
+/// A KHR_lights_punctual light placed by its node. Photometric intensities are used 1:1
+/// as radiometric ones: 1 cd is radiant intensity 1 W/sr and 1 lx is irradiance 1 W/m^2,
+/// on the same scale as emissive radiance (as the Khronos sample viewer does); `range` is ignored.
+fn convert_light(light: &gltf::khr_lights_punctual::Light, world: Mat4) -> PunctualLight {
+    let kind = match light.kind() {
+        Kind::Directional => PunctualKind::Directional,
+        Kind::Point => PunctualKind::Point,
+        Kind::Spot { inner_cone_angle, outer_cone_angle } => {
+            PunctualKind::Spot { cos_inner: inner_cone_angle.cos(), cos_outer: outer_cone_angle.cos() }
+        }
+    };
+    PunctualLight {
+        name: light.name().unwrap_or("light").into(),
+        kind,
+        position: world.transform_point3(Vec3::ZERO),
+        direction: world.transform_vector3(-Vec3::Z).normalize_or(-Vec3::Z),
+        intensity: Vec3::from(light.color()) * light.intensity(),
+    }
+}

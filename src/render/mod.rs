@@ -1,0 +1,5 @@
+//! Progressive rendering: a session whose workers keep adding passes to the film.
+
+mod session;
+
+pub use session::{Job, RenderSession, Snapshot};

@@ -1,0 +1,344 @@
+//! A render session: a coordinator thread runs passes over the film's tiles on a rayon pool
+//! (each worker owns whole tiles, so the add path takes no lock), publishes a snapshot
+//! after every pass, and restarts at once when a new job bumps the generation.
+
+use crate::film::{Film, Tile};
+use crate::integrator::{SampleFn, Settings, kernel, settings::InvalidSettings};
+use crate::scene::{Scene, camera::Camera, camera::RayGenerator};
+use glam::{UVec2, Vec3};
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Condvar, Mutex, MutexGuard};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+/// What to render: a scene, a camera and settings. Replacing it restarts accumulation.
+#[derive(Clone)]
+pub struct Job {
+    /// The scene (shared, immutable).
+    pub scene: Arc<Scene>,
+    /// The view.
+    pub camera: Camera,
+    /// Integrator and film settings.
+    pub settings: Settings,
+}
+
+/// The state of the image at the end of a pass.
+#[derive(Clone, Debug)]
+pub struct Snapshot {
+    /// Generation of the job this image belongs to.
+    pub generation: u64,
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// Row-major mean radiance per pixel.
+    pub mean: Vec<Vec3>,
+    /// Row-major estimated variance of each pixel's mean.
+    pub variance: Vec<Vec3>,
+    /// Samples per pixel accumulated.
+    pub spp: u32,
+    /// Time spent rendering this generation (pauses excluded).
+    pub elapsed: Duration,
+    /// Pixel samples taken (including rejected ones).
+    pub samples: u64,
+    /// Rays traced (camera, bounce and shadow).
+    pub rays: u64,
+    /// Samples dropped for being NaN or infinite.
+    pub rejected: u64,
+    /// Whether the target spp is reached.
+    pub done: bool,
+}
+
+impl Snapshot {
+    /// Pixel samples per second of render time.
+    pub fn samples_per_second(&self) -> f64 {
+        self.samples as f64 / self.elapsed.as_secs_f64().max(1e-9)
+    }
+
+    /// Rays per second of render time.
+    pub fn rays_per_second(&self) -> f64 {
+        self.rays as f64 / self.elapsed.as_secs_f64().max(1e-9)
+    }
+}
+
+struct Pending {
+    job: Job,
+    generation: u64,
+}
+
+#[derive(Default)]
+struct State {
+    pending: Option<Pending>,
+    latest: Option<Arc<Snapshot>>,
+    paused: bool,
+    stop: bool,
+}
+
+struct Shared {
+    generation: AtomicU64,
+    state: Mutex<State>,
+    wake: Condvar,
+    published: Condvar,
+}
+
+impl Shared {
+    fn lock(&self) -> MutexGuard<'_, State> {
+        self.state.lock().unwrap_or_else(|e| e.into_inner())
+    }
+}
+
+/// Owns the render workers; dropping it stops and joins them.
+pub struct RenderSession {
+    shared: Arc<Shared>,
+    thread: Option<JoinHandle<()>>,
+}
+
+impl RenderSession {
+    /// Starts rendering `job` on `threads` workers (None: one per core).
+    pub fn new(job: Job, threads: Option<usize>) -> Result<Self, InvalidSettings> {
+        job.settings.validate()?;
+        let shared = Arc::new(Shared {
+            generation: AtomicU64::new(0),
+            state: Mutex::new(State::default()),
+            wake: Condvar::new(),
+            published: Condvar::new(),
+        });
+        let mut builder = rayon::ThreadPoolBuilder::new().thread_name(|i| format!("lucent-render-{i}"));
+        if let Some(n) = threads {
+            builder = builder.num_threads(n.max(1));
+        }
+        let pool = builder.build().map_err(|e| InvalidSettings(format!("cannot start workers: {e}")))?;
+        let worker_shared = Arc::clone(&shared);
+        let thread = std::thread::Builder::new()
+            .name("lucent-session".into())
+            .spawn(move || coordinate(&worker_shared, &pool))
+            .map_err(|e| InvalidSettings(format!("cannot start the session thread: {e}")))?;
+        let session = Self { shared, thread: Some(thread) };
+        session.set_job(job)?;
+        Ok(session)
+    }
+
+    /// Replaces the job: in-flight work is dropped and accumulation restarts at once.
+    /// Returns the new generation.
+    pub fn set_job(&self, job: Job) -> Result<u64, InvalidSettings> {
+        job.settings.validate()?;
+        let mut state = self.shared.lock();
+        let generation = self.shared.generation.fetch_add(1, Ordering::SeqCst) + 1;
+        state.pending = Some(Pending { job, generation });
+        self.shared.wake.notify_all();
+        Ok(generation)
+    }
+
+    /// The current generation (bumped by every `set_job`).
+    pub fn generation(&self) -> u64 {
+        self.shared.generation.load(Ordering::SeqCst)
+    }
+
+    /// Pauses or resumes the workers (a pass in flight completes first).
+    pub fn set_paused(&self, paused: bool) {
+        self.shared.lock().paused = paused;
+        self.shared.wake.notify_all();
+    }
+
+    /// The latest published snapshot of the current generation, without waiting.
+    pub fn snapshot(&self) -> Option<Arc<Snapshot>> {
+        let state = self.shared.lock();
+        state.latest.clone().filter(|s| s.generation == self.generation())
+    }
+
+    /// Waits up to `timeout` for a snapshot of the current generation that differs from
+    /// `seen` (pass the last one you got, or None), and returns the latest one.
+    pub fn wait_for_update(&self, seen: Option<&Arc<Snapshot>>, timeout: Duration) -> Option<Arc<Snapshot>> {
+        let deadline = Instant::now() + timeout;
+        let mut state = self.shared.lock();
+        loop {
+            let generation = self.generation();
+            if let Some(latest) = state.latest.as_ref().filter(|s| s.generation == generation)
+                && seen.is_none_or(|s| !Arc::ptr_eq(s, latest))
+            {
+                return Some(Arc::clone(latest));
+            }
+            let now = Instant::now();
+            if now >= deadline {
+                return state.latest.clone().filter(|s| s.generation == generation);
+            }
+            state = self.shared.published.wait_timeout(state, deadline - now).unwrap_or_else(|e| e.into_inner()).0;
+        }
+    }
+
+    /// Blocks until the target spp of the current job is reached; returns the final image.
+    /// Only meaningful for jobs with a target.
+    pub fn wait_until_done(&self) -> Arc<Snapshot> {
+        let mut seen = None;
+        loop {
+            if let Some(s) = self.wait_for_update(seen.as_ref(), Duration::from_secs(1)) {
+                if s.done {
+                    return s;
+                }
+                seen = Some(s);
+            }
+        }
+    }
+}
+
+impl Drop for RenderSession {
+    fn drop(&mut self) {
+        self.shared.lock().stop = true;
+        self.shared.generation.fetch_add(1, Ordering::SeqCst);
+        self.shared.wake.notify_all();
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+/// The generation being rendered and its film.
+struct Active {
+    job: Job,
+    generation: u64,
+    film: Film,
+    kernel: SampleFn,
+    rays: RayGenerator,
+    spp: u32,
+    pass_spp: u32,
+    elapsed: Duration,
+    samples: u64,
+    traced: u64,
+}
+
+impl Active {
+    fn new(job: Job, generation: u64) -> Self {
+        let s = job.settings;
+        Self {
+            film: Film::new(s.width, s.height),
+            kernel: kernel(job.scene.features),
+            rays: job.camera.rays(s.width, s.height),
+            job,
+            generation,
+            spp: 0,
+            pass_spp: 1,
+            elapsed: Duration::ZERO,
+            samples: 0,
+            traced: 0,
+        }
+    }
+
+    fn done(&self) -> bool {
+        self.job.settings.target_spp.is_some_and(|t| self.spp >= t)
+    }
+}
+
+/// The session thread: waits for work, runs passes, publishes snapshots.
+fn coordinate(shared: &Shared, pool: &rayon::ThreadPool) {
+    let mut active: Option<Active> = None;
+    loop {
+        {
+            let mut state = shared.lock();
+            loop {
+                if state.stop {
+                    return;
+                }
+                if let Some(p) = state.pending.take() {
+                    active = Some(Active::new(p.job, p.generation));
+                    break;
+                }
+                if !state.paused && active.as_ref().is_some_and(|a| !a.done()) {
+                    break;
+                }
+                state = shared.wake.wait(state).unwrap_or_else(|e| e.into_inner());
+            }
+        }
+        let Some(a) = active.as_mut() else { continue };
+        if !run_pass(shared, pool, a) {
+            continue;
+        }
+        let snapshot = Arc::new(Snapshot {
+            generation: a.generation,
+            width: a.film.width,
+            height: a.film.height,
+            mean: a.film.mean_image(),
+            variance: a.film.variance_image(),
+            spp: a.spp,
+            elapsed: a.elapsed,
+            samples: a.samples,
+            rays: a.traced,
+            rejected: a.film.rejected(),
+            done: a.done(),
+        });
+        shared.lock().latest = Some(snapshot);
+        shared.published.notify_all();
+    }
+}
+
+/// Everything a tile needs to render its share of one pass.
+struct Pass<'a> {
+    scene: &'a Scene,
+    settings: &'a Settings,
+    rays: &'a RayGenerator,
+    kernel: SampleFn,
+    first: u64,
+    count: u32,
+    current: &'a AtomicU64,
+    generation: u64,
+}
+
+impl Pass<'_> {
+    fn stale(&self) -> bool {
+        self.current.load(Ordering::Relaxed) != self.generation
+    }
+
+    /// Adds samples `first..first + count` to every pixel of the tile; returns (samples, rays).
+    fn render_tile(&self, tile: &mut Tile) -> (u64, u64) {
+        let (mut samples, mut traced) = (0u64, 0u64);
+        for ly in 0..tile.size.y {
+            for lx in 0..tile.size.x {
+                if self.stale() {
+                    return (samples, traced);
+                }
+                let local = UVec2::new(lx, ly);
+                let pixel = tile.origin + local;
+                for i in 0..self.count as u64 {
+                    let out = (self.kernel)(self.scene, self.settings, self.rays, pixel, self.first + i);
+                    tile.add(local, out.radiance);
+                    traced += out.rays as u64;
+                }
+                samples += self.count as u64;
+            }
+        }
+        (samples, traced)
+    }
+}
+
+/// Adds one pass to the film; false if a newer job arrived meanwhile (the pass is dropped).
+fn run_pass(shared: &Shared, pool: &rayon::ThreadPool, a: &mut Active) -> bool {
+    let remaining = a.job.settings.target_spp.map_or(u32::MAX, |t| t - a.spp);
+    let pass = Pass {
+        scene: &a.job.scene,
+        settings: &a.job.settings,
+        rays: &a.rays,
+        kernel: a.kernel,
+        first: a.spp as u64,
+        count: a.pass_spp.min(remaining),
+        current: &shared.generation,
+        generation: a.generation,
+    };
+    let start = Instant::now();
+    let (samples, traced) = pool.install(|| {
+        a.film.tiles.par_iter_mut().map(|tile| pass.render_tile(tile)).reduce(|| (0, 0), |x, y| (x.0 + y.0, x.1 + y.1))
+    });
+    if pass.stale() {
+        return false;
+    }
+    let took = start.elapsed();
+    a.spp += pass.count;
+    a.elapsed += took;
+    a.samples += samples;
+    a.traced += traced;
+    if took < Duration::from_millis(100) {
+        a.pass_spp = (a.pass_spp * 2).min(64);
+    } else if took > Duration::from_millis(400) {
+        a.pass_spp = (a.pass_spp / 2).max(1);
+    }
+    true
+}

@@ -1,0 +1,103 @@
+//! Pinhole perspective camera (glTF convention: looks down local -z, +y up).
+
+use super::geometry::Ray;
+use glam::{Quat, Vec2, Vec3};
+
+/// A perspective camera placed in the world.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Camera {
+    /// Eye position.
+    pub position: Vec3,
+    /// Orientation; the camera looks along `rotation * -Z`.
+    pub rotation: Quat,
+    /// Vertical field of view in radians.
+    pub yfov: f32,
+}
+
+impl Camera {
+    /// A camera at `eye` looking at `target` with +y up.
+    pub fn look_at(eye: Vec3, target: Vec3, yfov: f32) -> Self {
+        let forward = (target - eye).normalize();
+        let up = if forward.cross(Vec3::Y).length_squared() < 1e-8 { Vec3::Z } else { Vec3::Y };
+        let right = forward.cross(up).normalize();
+        let up = right.cross(forward);
+        let rotation = Quat::from_mat3(&glam::Mat3::from_cols(right, up, -forward)).normalize();
+        Self { position: eye, rotation, yfov }
+    }
+
+    /// A camera that frames the axis-aligned box [min, max] from its +z side.
+    pub fn framing(min: Vec3, max: Vec3, aspect: f32) -> Self {
+        let yfov = 0.8f32;
+        let center = 0.5 * (min + max);
+        let radius = (0.5 * (max - min).length()).max(f32::MIN_POSITIVE);
+        let half = 0.5 * yfov.min(2.0 * ((0.5 * yfov).tan() * aspect).atan());
+        let distance = radius / half.sin();
+        Self::look_at(center + Vec3::Z * distance, center, yfov)
+    }
+
+    /// Generates primary rays for a `width` x `height` film.
+    pub fn rays(&self, width: u32, height: u32) -> RayGenerator {
+        let tan_y = (0.5 * self.yfov).tan();
+        let aspect = width as f32 / height as f32;
+        RayGenerator {
+            origin: self.position,
+            forward: self.rotation * -Vec3::Z,
+            right: self.rotation * Vec3::X * (tan_y * aspect),
+            up: self.rotation * Vec3::Y * tan_y,
+            inv_size: Vec2::new(1.0 / width as f32, 1.0 / height as f32),
+        }
+    }
+}
+
+/// Precomputed camera basis scaled to the film.
+#[derive(Clone, Copy, Debug)]
+pub struct RayGenerator {
+    origin: Vec3,
+    forward: Vec3,
+    right: Vec3,
+    up: Vec3,
+    inv_size: Vec2,
+}
+
+impl RayGenerator {
+    /// The ray through film position `film` (pixels, origin top-left, +y down).
+    pub fn ray(&self, film: Vec2) -> Ray {
+        let ndc = film * self.inv_size * 2.0 - Vec2::ONE;
+        let d = self.forward + self.right * ndc.x - self.up * ndc.y;
+        Ray { o: self.origin, d: d.normalize(), tmax: f32::INFINITY }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn look_at_points_the_centre_ray_at_the_target() {
+        let cam = Camera::look_at(Vec3::new(1.0, 2.0, 3.0), Vec3::new(-1.0, 0.5, 0.0), 0.7);
+        let ray = cam.rays(64, 48).ray(Vec2::new(32.0, 24.0));
+        let want = (Vec3::new(-1.0, 0.5, 0.0) - Vec3::new(1.0, 2.0, 3.0)).normalize();
+        assert!((ray.d - want).length() < 1e-5);
+        let top = cam.rays(64, 48).ray(Vec2::new(32.0, 0.0));
+        assert!((top.d.angle_between(ray.d) - 0.35).abs() < 1e-4, "half the vertical fov");
+        assert!(top.d.y > ray.d.y, "film +y points down");
+    }
+
+    #[test]
+    fn framing_keeps_the_bounds_in_view() {
+        let (min, max) = (Vec3::new(-3.0, 0.0, -1.0), Vec3::new(5.0, 2.0, 1.0));
+        let cam = Camera::framing(min, max, 2.0);
+        let fwd = cam.rotation * -Vec3::Z;
+        for corner in 0..8 {
+            let c = Vec3::new(
+                if corner & 1 == 0 { min.x } else { max.x },
+                if corner & 2 == 0 { min.y } else { max.y },
+                if corner & 4 == 0 { min.z } else { max.z },
+            );
+            let v = c - cam.position;
+            assert!(v.dot(fwd) > 0.0, "in front");
+            let up = cam.rotation * Vec3::Y;
+            assert!(v.dot(up).abs() / v.dot(fwd) <= (0.5 * cam.yfov).tan() + 1e-4);
+        }
+    }
+}

@@ -1,0 +1,225 @@
+//! Triangles in BVH order, obvhs's CWBVH over them, and a watertight ray/triangle test.
+
+use glam::{Vec2, Vec3, Vec3A};
+use obvhs::{
+    BvhBuildParams,
+    cwbvh::{CwBvh, builder::build_cwbvh_from_tris},
+    ray::{Ray as BvhRay, RayHit},
+    triangle::Triangle,
+};
+use std::time::Duration;
+
+/// Per-triangle shading attributes, stored in BVH order beside the positions.
+#[derive(Clone, Copy, Debug)]
+pub struct TriAttrs {
+    /// Shading normals at the three vertices (world space, unit length).
+    pub normals: [Vec3; 3],
+    /// Texture coordinates (set 0) at the three vertices.
+    pub uvs: [Vec2; 3],
+    /// Unit geometric normal, on the glTF front side (counter-clockwise winding).
+    pub ng: Vec3,
+    /// Index into the scene's materials.
+    pub material: u32,
+}
+
+/// A ray with origin, direction (any length) and a parametric interval [0, tmax).
+#[derive(Clone, Copy, Debug)]
+pub struct Ray {
+    /// Origin.
+    pub o: Vec3,
+    /// Direction; hits are at `o + t d`.
+    pub d: Vec3,
+    /// Exclusive upper bound on t.
+    pub tmax: f32,
+}
+
+/// A closest hit: triangle (BVH order), distance parameter and barycentrics.
+#[derive(Clone, Copy, Debug)]
+pub struct Hit {
+    /// Triangle index in BVH order.
+    pub tri: u32,
+    /// Ray parameter of the hit.
+    pub t: f32,
+    /// Barycentric weights of vertices 0, 1, 2.
+    pub b: [f32; 3],
+}
+
+/// Triangle positions plus attributes in BVH order, and the BVH over them.
+pub struct Geometry {
+    bvh: CwBvh,
+    positions: Vec<[Vec3; 3]>,
+    attrs: Vec<TriAttrs>,
+}
+
+impl Geometry {
+    /// Builds obvhs's CWBVH over the triangles, then reorders triangles and attributes
+    /// once into BVH order so that traversal indexes them directly.
+    pub fn build(positions: Vec<[Vec3; 3]>, attrs: Vec<TriAttrs>) -> Self {
+        let tris: Vec<Triangle> =
+            positions.iter().map(|p| Triangle { v0: p[0].into(), v1: p[1].into(), v2: p[2].into() }).collect();
+        let bvh = if tris.is_empty() {
+            CwBvh::default()
+        } else {
+            build_cwbvh_from_tris(&tris, BvhBuildParams::medium_build(), &mut Duration::default())
+        };
+        let order = &bvh.primitive_indices;
+        let positions = order.iter().map(|&i| positions[i as usize]).collect();
+        let attrs = order.iter().map(|&i| attrs[i as usize]).collect();
+        Self { bvh, positions, attrs }
+    }
+
+    /// Number of triangles (in BVH order, so including any duplicated references).
+    pub fn len(&self) -> usize {
+        self.positions.len()
+    }
+
+    /// Whether there is no triangle at all.
+    pub fn is_empty(&self) -> bool {
+        self.positions.is_empty()
+    }
+
+    /// Vertex positions of triangle `i` (BVH order).
+    pub fn positions(&self, i: u32) -> &[Vec3; 3] {
+        &self.positions[i as usize]
+    }
+
+    /// Shading attributes of triangle `i` (BVH order).
+    pub fn attrs(&self, i: u32) -> &TriAttrs {
+        &self.attrs[i as usize]
+    }
+
+    /// Closest hit along the ray, if any.
+    pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
+        if self.is_empty() {
+            return None;
+        }
+        let wt = Watertight::new(ray);
+        let mut hit = RayHit::none();
+        let found = self.bvh.ray_traverse(to_bvh_ray(ray), &mut hit, |r, id| {
+            wt.intersect(&self.positions[id], r.tmax).map_or(f32::INFINITY, |(t, _)| t)
+        });
+        if !found {
+            return None;
+        }
+        let (t, b) = wt.intersect(&self.positions[hit.primitive_id as usize], f32::INFINITY)?;
+        Some(Hit { tri: hit.primitive_id, t, b })
+    }
+
+    /// Whether anything blocks the ray before `tmax` (early-exit traversal).
+    pub fn occluded(&self, ray: &Ray) -> bool {
+        if self.is_empty() {
+            return false;
+        }
+        let wt = Watertight::new(ray);
+        !self.bvh.ray_traverse_miss(to_bvh_ray(ray), |r, id| {
+            wt.intersect(&self.positions[id], r.tmax).map_or(f32::INFINITY, |(t, _)| t)
+        })
+    }
+}
+
+/// The ray as obvhs takes it. Adding +0.0 turns -0.0 direction components into +0.0:
+/// obvhs inverts -0.0 to a large negative number but picks the traversal octant as if the
+/// component were positive, so axis-aligned rays with -0.0 components would miss everything.
+fn to_bvh_ray(ray: &Ray) -> BvhRay {
+    BvhRay::new(Vec3A::from(ray.o), Vec3A::from(ray.d + Vec3::ZERO), 0.0, ray.tmax)
+}
+
+/// Per-ray precomputation of the watertight ray/triangle test of Woop, Benthin and Wald
+/// (JCGT 2013): the ray is sheared onto +z so that edge functions of shared edges agree
+/// exactly, and ties are resolved in f64, so no ray slips between adjacent triangles.
+struct Watertight {
+    o: Vec3,
+    k: [usize; 3],
+    shear: Vec3,
+}
+
+impl Watertight {
+    fn new(ray: &Ray) -> Self {
+        let d = ray.d;
+        let kz = d.abs().max_position();
+        let mut kx = (kz + 1) % 3;
+        let mut ky = (kx + 1) % 3;
+        if d[kz] < 0.0 {
+            std::mem::swap(&mut kx, &mut ky);
+        }
+        let shear = Vec3::new(d[kx] / d[kz], d[ky] / d[kz], 1.0 / d[kz]);
+        Self { o: ray.o, k: [kx, ky, kz], shear }
+    }
+
+    /// Distance parameter in (0, tmax) and barycentrics, or None.
+    fn intersect(&self, p: &[Vec3; 3], tmax: f32) -> Option<(f32, [f32; 3])> {
+        let [kx, ky, kz] = self.k;
+        let s = self.shear;
+        let rel = p.map(|v| v - self.o);
+        let x = rel.map(|a| a[kx] - s.x * a[kz]);
+        let y = rel.map(|a| a[ky] - s.y * a[kz]);
+        let mut u = x[2] * y[1] - y[2] * x[1];
+        let mut v = x[0] * y[2] - y[0] * x[2];
+        let mut w = x[1] * y[0] - y[1] * x[0];
+        if u == 0.0 || v == 0.0 || w == 0.0 {
+            let (x, y) = (x.map(f64::from), y.map(f64::from));
+            u = (x[2] * y[1] - y[2] * x[1]) as f32;
+            v = (x[0] * y[2] - y[0] * x[2]) as f32;
+            w = (x[1] * y[0] - y[1] * x[0]) as f32;
+        }
+        if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
+            return None;
+        }
+        let det = u + v + w;
+        if det == 0.0 {
+            return None;
+        }
+        let z = rel.map(|a| s.z * a[kz]);
+        let t_scaled = u * z[0] + v * z[1] + w * z[2];
+        let t = t_scaled / det;
+        if !(t > 0.0 && t < tmax) {
+            return None;
+        }
+        let inv = 1.0 / det;
+        Some((t, [u * inv, v * inv, w * inv]))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn quad() -> Geometry {
+        let p = [
+            [Vec3::new(-1., -1., 0.), Vec3::new(1., -1., 0.), Vec3::new(1., 1., 0.)],
+            [Vec3::new(-1., -1., 0.), Vec3::new(1., 1., 0.), Vec3::new(-1., 1., 0.)],
+        ];
+        let a = TriAttrs { normals: [Vec3::Z; 3], uvs: [Vec2::ZERO; 3], ng: Vec3::Z, material: 0 };
+        Geometry::build(p.to_vec(), vec![a; 2])
+    }
+
+    #[test]
+    fn rays_through_the_shared_diagonal_and_vertices_hit() {
+        let g = quad();
+        for x in [-0.75f32, -0.5, 0.0, 0.25, 0.75] {
+            let ray = Ray { o: Vec3::new(x, x, 1.0), d: -Vec3::Z, tmax: f32::INFINITY };
+            let hit = g.intersect(&ray).expect("diagonal hit");
+            assert!((hit.t - 1.0).abs() < 1e-6);
+            let p = g.positions(hit.tri);
+            let q = p[0] * hit.b[0] + p[1] * hit.b[1] + p[2] * hit.b[2];
+            assert!((q - Vec3::new(x, x, 0.0)).length() < 1e-6);
+        }
+    }
+
+    #[test]
+    fn axis_aligned_rays_with_negative_zero_components_hit() {
+        let g = quad();
+        let d = Vec3::new(-0.0, -0.0, -1.0);
+        assert!(g.intersect(&Ray { o: Vec3::new(0.5, -0.5, 1.0), d, tmax: f32::INFINITY }).is_some());
+    }
+
+    #[test]
+    fn occlusion_respects_tmax() {
+        let g = quad();
+        let ray = Ray { o: Vec3::new(0.1, 0.2, 1.0), d: -Vec3::Z, tmax: 0.999 };
+        assert!(!g.occluded(&ray));
+        assert!(g.occluded(&Ray { tmax: 1.001, ..ray }));
+        let back = Ray { o: Vec3::new(0.1, 0.2, -1.0), d: -Vec3::Z, tmax: f32::INFINITY };
+        assert!(g.intersect(&back).is_none());
+    }
+}

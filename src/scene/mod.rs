@@ -1,0 +1,258 @@
+//! The immutable scene: triangles in a BVH, materials, textures, lights, cameras, and the
+//! set of effects it contains, which selects the integrator kernel.
+
+pub mod camera;
+pub mod geometry;
+pub mod light;
+pub mod material;
+pub mod shapes;
+pub mod texture;
+
+use crate::math::{float::interpolation_error, luminance};
+use camera::Camera;
+use geometry::{Geometry, Hit, TriAttrs};
+use glam::{Vec2, Vec3};
+use light::{LightRef, LightSampler, PunctualLight};
+use material::Material;
+use texture::{ColorSpace, Image, Texture};
+
+/// Effects a scene contains. The integrator is monomorphised over this set, so a scene
+/// never pays for an effect it does not contain.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Features {
+    /// Some triangle emits light.
+    pub emissive: bool,
+    /// There are KHR_lights_punctual lights.
+    pub punctual: bool,
+    /// Some material reads a texture.
+    pub textures: bool,
+    /// Some material has a GGX lobe (otherwise every surface is Lambertian).
+    pub glossy: bool,
+}
+
+impl Features {
+    /// Every effect switched on: the general kernel, for comparisons.
+    pub const ALL: Self = Self { emissive: true, punctual: true, textures: true, glossy: true };
+}
+
+/// A triangle mesh in world space, as a loader produces it.
+#[derive(Clone, Debug, Default)]
+pub struct MeshDesc {
+    /// Name for messages.
+    pub name: String,
+    /// Vertex positions.
+    pub positions: Vec<Vec3>,
+    /// Vertex normals, if the file has them (face normals are used otherwise).
+    pub normals: Option<Vec<Vec3>>,
+    /// Texture coordinates (set 0), if any.
+    pub uvs: Option<Vec<Vec2>>,
+    /// Triangle list; counter-clockwise triangles face the viewer.
+    pub indices: Vec<u32>,
+    /// Index into the materials.
+    pub material: u32,
+}
+
+/// Everything a loader produces: a plain description the `Scene` is built from.
+#[derive(Default)]
+pub struct SceneDesc {
+    /// Name shown to the user (file stem).
+    pub name: String,
+    /// Meshes flattened to world space.
+    pub meshes: Vec<MeshDesc>,
+    /// Materials, indexed by `MeshDesc::material`.
+    pub materials: Vec<Material>,
+    /// Textures referenced by materials.
+    pub textures: Vec<Texture>,
+    /// Images referenced by textures.
+    pub images: Vec<Image>,
+    /// Punctual lights in world space.
+    pub lights: Vec<PunctualLight>,
+    /// Cameras from the file, with their names; the first is the default view.
+    pub cameras: Vec<(String, Camera)>,
+    /// Things the loader could not honour, one line each.
+    pub warnings: Vec<String>,
+}
+
+/// A surface point found by a ray.
+#[derive(Clone, Copy, Debug)]
+pub struct Surface {
+    /// Position (interpolated from the vertices).
+    pub p: Vec3,
+    /// Absolute error bound on `p`, per coordinate.
+    pub p_error: Vec3,
+    /// Unit geometric normal on the front side.
+    pub ng: Vec3,
+    /// Unit interpolated shading normal.
+    pub ns: Vec3,
+    /// Texture coordinates.
+    pub uv: Vec2,
+    /// Material index.
+    pub material: u32,
+    /// Triangle index (BVH order).
+    pub tri: u32,
+}
+
+/// An immutable, shareable scene ready to render.
+pub struct Scene {
+    /// Name shown to the user.
+    pub name: String,
+    /// Triangles and BVH.
+    pub geometry: Geometry,
+    /// Materials.
+    pub materials: Vec<Material>,
+    /// Textures.
+    pub textures: Vec<Texture>,
+    /// Images behind the textures.
+    pub images: Vec<Image>,
+    /// Punctual lights.
+    pub lights: Vec<PunctualLight>,
+    /// Power-proportional choice among all lights.
+    pub light_sampler: LightSampler,
+    /// Named cameras from the file.
+    pub cameras: Vec<(String, Camera)>,
+    /// Bounds of all geometry (min, max).
+    pub bounds: (Vec3, Vec3),
+    /// Effects present, selecting the integrator kernel.
+    pub features: Features,
+    /// Loader and build warnings, one line each.
+    pub warnings: Vec<String>,
+}
+
+impl Scene {
+    /// Flattens meshes to triangles (dropping degenerate or non-finite ones with a warning),
+    /// builds the BVH, the light sampler and the feature set.
+    pub fn build(desc: SceneDesc) -> Self {
+        let SceneDesc { name, meshes, mut materials, textures, images, lights, cameras, mut warnings } = desc;
+        if materials.is_empty() {
+            materials.push(Material::default());
+        }
+        let mut positions = Vec::new();
+        let mut attrs = Vec::new();
+        let (mut dropped_bad, mut dropped_degenerate) = (0usize, 0usize);
+        for mesh in &meshes {
+            let material = mesh.material.min(materials.len() as u32 - 1);
+            for tri in mesh.indices.chunks_exact(3) {
+                let idx = [tri[0] as usize, tri[1] as usize, tri[2] as usize];
+                let p = idx.map(|i| mesh.positions[i]);
+                if !p.iter().all(|v| v.is_finite()) {
+                    dropped_bad += 1;
+                    continue;
+                }
+                let cross = (p[1] - p[0]).cross(p[2] - p[0]);
+                let ng = cross.normalize_or_zero();
+                if ng == Vec3::ZERO || !ng.is_finite() {
+                    dropped_degenerate += 1;
+                    continue;
+                }
+                let normals = match &mesh.normals {
+                    Some(n) => idx.map(|i| {
+                        let n = n[i].normalize_or_zero();
+                        if n == Vec3::ZERO || !n.is_finite() { ng } else { n }
+                    }),
+                    None => [ng; 3],
+                };
+                let uvs = match &mesh.uvs {
+                    Some(uv) => idx.map(|i| if uv[i].is_finite() { uv[i] } else { Vec2::ZERO }),
+                    None => [Vec2::ZERO; 3],
+                };
+                positions.push(p);
+                attrs.push(TriAttrs { normals, uvs, ng, material });
+            }
+        }
+        if dropped_bad > 0 {
+            warnings.push(format!("dropped {dropped_bad} triangles with NaN or infinite vertices"));
+        }
+        if dropped_degenerate > 0 {
+            warnings.push(format!("dropped {dropped_degenerate} degenerate (zero-area) triangles"));
+        }
+        let bounds = positions
+            .iter()
+            .flatten()
+            .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &v| (lo.min(v), hi.max(v)));
+        let bounds = if positions.is_empty() { (Vec3::ZERO, Vec3::ZERO) } else { bounds };
+        let geometry = Geometry::build(positions, attrs);
+        let light_sampler = build_light_sampler(&geometry, &materials, &textures, &images, &lights, bounds);
+        let used: Vec<&Material> = {
+            let mut seen = vec![false; materials.len()];
+            (0..geometry.len() as u32).for_each(|t| seen[geometry.attrs(t).material as usize] = true);
+            materials.iter().zip(seen).filter(|(_, s)| *s).map(|(m, _)| m).collect()
+        };
+        let features = Features {
+            emissive: used.iter().any(|m| m.is_emissive()),
+            punctual: !lights.is_empty(),
+            textures: used.iter().any(|m| m.is_textured()),
+            glossy: used.iter().any(|m| m.is_glossy()),
+        };
+        Self { name, geometry, materials, textures, images, lights, light_sampler, cameras, bounds, features, warnings }
+    }
+
+    /// The file's first camera, or one that frames the scene's bounds.
+    pub fn default_camera(&self, aspect: f32) -> Camera {
+        match self.cameras.first() {
+            Some((_, cam)) => *cam,
+            None => Camera::framing(self.bounds.0, self.bounds.1, aspect),
+        }
+    }
+
+    /// Radius of a sphere around the scene's bounds.
+    pub fn radius(&self) -> f32 {
+        0.5 * (self.bounds.1 - self.bounds.0).length()
+    }
+
+    /// Surface data at a hit.
+    pub fn surface(&self, hit: &Hit) -> Surface {
+        let p = self.geometry.positions(hit.tri);
+        let a = self.geometry.attrs(hit.tri);
+        let b = hit.b;
+        let pos = p[0] * b[0] + p[1] * b[1] + p[2] * b[2];
+        let ns = (a.normals[0] * b[0] + a.normals[1] * b[1] + a.normals[2] * b[2]).normalize_or_zero();
+        Surface {
+            p: pos,
+            p_error: interpolation_error(b, *p),
+            ng: a.ng,
+            ns: if ns == Vec3::ZERO { a.ng } else { ns },
+            uv: a.uvs[0] * b[0] + a.uvs[1] * b[1] + a.uvs[2] * b[2],
+            material: a.material,
+            tri: hit.tri,
+        }
+    }
+
+    /// Area of triangle `tri` (BVH order).
+    pub fn triangle_area(&self, tri: u32) -> f32 {
+        let p = self.geometry.positions(tri);
+        0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length()
+    }
+}
+
+fn build_light_sampler(
+    geometry: &Geometry,
+    materials: &[Material],
+    textures: &[Texture],
+    images: &[Image],
+    lights: &[PunctualLight],
+    bounds: (Vec3, Vec3),
+) -> LightSampler {
+    let mean_emission: Vec<f32> = materials
+        .iter()
+        .map(|m| {
+            let tex = m
+                .emissive_tex
+                .map_or(Vec3::ONE, |t| images[textures[t as usize].image as usize].mean(ColorSpace::Srgb).truncate());
+            luminance(m.emissive * tex)
+        })
+        .collect();
+    let mut candidates = Vec::new();
+    for t in 0..geometry.len() as u32 {
+        let le = mean_emission[geometry.attrs(t).material as usize];
+        if le > 0.0 {
+            let p = geometry.positions(t);
+            let area = 0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length();
+            candidates.push((LightRef::Triangle(t), std::f32::consts::PI * area * le));
+        }
+    }
+    let radius = 0.5 * (bounds.1 - bounds.0).length();
+    for (i, l) in lights.iter().enumerate() {
+        candidates.push((LightRef::Punctual(i as u32), l.power(radius)));
+    }
+    LightSampler::new(candidates, geometry.len())
+}
