@@ -81,7 +81,6 @@ fn convert(
     desc.textures = doc.textures().map(convert_texture).collect();
     desc.materials = doc.materials().map(|m| convert_material(&m, &mut warnings)).collect();
     let default_material = desc.materials.len() as u32;
-    desc.materials.push(Material { name: "glTF default".into(), ..Material::default() });
 
     let scene = match doc.default_scene().or_else(|| doc.scenes().next()) {
         Some(s) => s,
@@ -120,6 +119,9 @@ fn convert(
             }
         }
         stack.extend(node.children().map(|c| (c, world, depth + 1)));
+    }
+    if desc.meshes.iter().any(|m| m.material == default_material) {
+        desc.materials.push(Material { name: "glTF default".into(), ..Material::default() });
     }
     desc.warnings = warnings.0.into_iter().collect();
     Ok(desc)

@@ -1,0 +1,112 @@
+//! Estimator agreement on the Cornell box: every combination of the importance-sampling
+//! and light-sampling switches converges to the same image as MIS. Block means of 16x16
+//! pixels are compared with a z-test whose variance comes from the per-pixel estimates,
+//! at family-wise significance 1e-3 with the Sidak correction over blocks, channels and
+//! combinations.
+
+mod common;
+
+use glam::{DVec3, Vec3};
+use lucent::integrator::{LightSampling, PixelSampling, Settings};
+use lucent::loader::builtin;
+use lucent::render::Snapshot;
+use lucent::scene::Scene;
+use std::sync::Arc;
+
+const SIZE: u32 = 128;
+const BLOCK: u32 = 16;
+
+/// Per-block means and variances of the mean, per channel.
+fn blocks(s: &Snapshot) -> Vec<(DVec3, DVec3)> {
+    let per_side = SIZE / BLOCK;
+    let mut out = vec![(DVec3::ZERO, DVec3::ZERO); (per_side * per_side) as usize];
+    let n = (BLOCK * BLOCK) as f64;
+    for y in 0..SIZE {
+        for x in 0..SIZE {
+            let i = (y * SIZE + x) as usize;
+            let b = &mut out[((y / BLOCK) * per_side + x / BLOCK) as usize];
+            b.0 += s.mean[i].as_dvec3() / n;
+            b.1 += s.variance[i].as_dvec3() / (n * n);
+        }
+    }
+    out
+}
+
+fn cornell() -> Arc<Scene> {
+    Arc::new(Scene::build(builtin::cornell_box()))
+}
+
+fn settings(importance: bool, lights: LightSampling, pixel_sampling: PixelSampling, seed: u64, spp: u32) -> Settings {
+    Settings {
+        width: SIZE,
+        height: SIZE,
+        seed,
+        importance_sampling: importance,
+        light_sampling: lights,
+        pixel_sampling,
+        target_spp: Some(spp),
+        ..Settings::default()
+    }
+}
+
+#[test]
+fn every_switch_combination_agrees_with_mis_block_by_block() {
+    let scene = cornell();
+    let camera = scene.default_camera(1.0);
+    let reference =
+        common::render(&scene, camera, settings(true, LightSampling::Mis, PixelSampling::Random, 1, 64), None);
+    let reference = blocks(&reference);
+    let combos = [
+        (true, LightSampling::Off, PixelSampling::Random, 256),
+        (true, LightSampling::Explicit, PixelSampling::Random, 64),
+        (true, LightSampling::Mis, PixelSampling::Stratified, 64),
+        (false, LightSampling::Off, PixelSampling::Random, 256),
+        (false, LightSampling::Explicit, PixelSampling::Random, 64),
+        (false, LightSampling::Mis, PixelSampling::Random, 64),
+    ];
+    let z_max = common::sidak_z(1e-3, combos.len() * reference.len() * 3);
+    for (importance, lights, pixels, spp) in combos {
+        let snap = common::render(&scene, camera, settings(importance, lights, pixels, 2, spp), None);
+        assert_eq!(snap.rejected, 0);
+        let mut worst = 0.0f64;
+        for (b, (test, refr)) in blocks(&snap).iter().zip(&reference).enumerate() {
+            for c in 0..3 {
+                let se = (test.1[c] + refr.1[c]).sqrt();
+                let z = (test.0[c] - refr.0[c]) / se;
+                worst = worst.max(z.abs());
+                assert!(
+                    z.abs() < z_max,
+                    "importance {importance}, lights {lights:?}, {pixels:?}: block {b} channel {c}: {:.4} vs MIS {:.4} (z = {z:.2}, limit {z_max:.2})",
+                    test.0[c],
+                    refr.0[c]
+                );
+            }
+        }
+        eprintln!("importance {importance}, lights {lights:?}, {pixels:?}: worst |z| {worst:.2} (limit {z_max:.2})");
+    }
+}
+
+#[test]
+fn the_grid_baseline_matches_the_reference_over_the_whole_image() {
+    // Grid pixel sampling is biased per pixel by discretisation (edges alias), but over the
+    // whole image the midpoint rule's error is far below the path noise, so the image means
+    // must pass the same z-test (variance of a mean of pixel means: sum of variances / n^2).
+    let scene = cornell();
+    let camera = scene.default_camera(1.0);
+    let stats = |s: &Snapshot| {
+        let n = s.mean.len() as f64;
+        let mean = s.mean.iter().map(|p| p.as_dvec3()).sum::<DVec3>() / n;
+        let var = s.variance.iter().map(|v| v.as_dvec3()).sum::<DVec3>() / (n * n);
+        (mean, var)
+    };
+    let reference =
+        common::render(&scene, camera, settings(true, LightSampling::Mis, PixelSampling::Random, 3, 64), None);
+    let grid = common::render(&scene, camera, settings(true, LightSampling::Mis, PixelSampling::Grid, 3, 64), None);
+    let ((r, rv), (g, gv)) = (stats(&reference), stats(&grid));
+    let z_max = common::sidak_z(1e-3, 3);
+    for c in 0..3 {
+        let z = (g[c] - r[c]) / (rv[c] + gv[c]).sqrt();
+        assert!(z.abs() < z_max, "channel {c}: grid {:.5} vs reference {:.5} (z = {z:.2})", g[c], r[c]);
+    }
+    assert!(Vec3::from(g.as_vec3()).min_element() > 0.0);
+}
