@@ -1,6 +1,9 @@
 //! The glTF metallic-roughness BRDF (glTF 2.0 spec Appendix B, with KHR_materials_specular):
 //! mix(dielectric, metal, metallic), where the dielectric is a Fresnel mix of a Lambertian
 //! base under a GGX specular layer, and the metal is GGX with Schlick's conductor Fresnel.
+//! The spec's mix weights the base by 1 - F(v.h), which is not energy conserving at grazing
+//! incidence: a smooth white dielectric reflects up to 1.65 at theta_o = 1.5 rad. Metals
+//! and the base alone never exceed 1 (tests/bsdf_chi2.rs).
 
 use super::microfacet::{Ggx, reflect};
 use crate::math::{luminance, warp};
