@@ -6,7 +6,7 @@
 
 mod common;
 
-use glam::{DVec3, Vec3};
+use glam::DVec3;
 use lucent::integrator::{LightSampling, PixelSampling, Settings};
 use lucent::loader::builtin;
 use lucent::render::Snapshot;
@@ -108,5 +108,5 @@ fn the_grid_baseline_matches_the_reference_over_the_whole_image() {
         let z = (g[c] - r[c]) / (rv[c] + gv[c]).sqrt();
         assert!(z.abs() < z_max, "channel {c}: grid {:.5} vs reference {:.5} (z = {z:.2})", g[c], r[c]);
     }
-    assert!(Vec3::from(g.as_vec3()).min_element() > 0.0);
+    assert!(g.as_vec3().min_element() > 0.0);
 }

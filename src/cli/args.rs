@@ -84,7 +84,7 @@ pub struct RenderOptions {
     #[arg(long, value_enum, default_value_t = LightMode::Mis)]
     pub lights: LightMode,
     /// Firefly clamp on a sample's largest component (biased; off unless given).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub clamp: Option<f32>,
     /// Worker threads [default: one per core].
     #[arg(long)]
@@ -129,7 +129,7 @@ pub struct RenderArgs {
     #[arg(long)]
     pub spp: Option<u32>,
     /// Render for this many seconds instead of a sample count (--spp then caps it).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub time: Option<f64>,
     /// Exposure in EV applied before PNG tonemapping.
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]

@@ -279,3 +279,46 @@ fn sample_light<const E: bool, const P: bool, const T: bool>(
         _ => (Vec3::ZERO, false),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn offsets(mode: PixelSampling, strata: u32, count: u64) -> Vec<Vec2> {
+        let settings = Settings { pixel_sampling: mode, strata, seed: 4, ..Settings::default() };
+        let pixel = UVec2::new(3, 9);
+        (0..count).map(|i| pixel_offset(&settings, pixel, i, &mut Sampler::new(pixel, i, 4))).collect()
+    }
+
+    #[test]
+    fn stratified_rounds_put_one_sample_in_every_stratum() {
+        let k = 3u32;
+        for round in offsets(PixelSampling::Stratified, k, 4 * 9).chunks(9) {
+            let mut seen = [false; 9];
+            for o in round {
+                assert!(o.x >= 0.0 && o.x < 1.0 && o.y >= 0.0 && o.y < 1.0);
+                let cell = (o.y * k as f32) as usize * k as usize + (o.x * k as f32) as usize;
+                assert!(!seen[cell], "stratum {cell} twice in a round");
+                seen[cell] = true;
+            }
+        }
+    }
+
+    #[test]
+    fn grid_samples_the_cell_midpoints_and_repeats() {
+        let o = offsets(PixelSampling::Grid, 2, 8);
+        assert_eq!(
+            &o[..4],
+            &[Vec2::new(0.25, 0.25), Vec2::new(0.75, 0.25), Vec2::new(0.25, 0.75), Vec2::new(0.75, 0.75)]
+        );
+        assert_eq!(o[..4], o[4..]);
+    }
+
+    #[test]
+    fn power_heuristic_weights_sum_to_one() {
+        for (a, b) in [(1.0f32, 3.0f32), (0.2, 0.2), (5.0, 0.0)] {
+            assert!((power_heuristic(a, b) + power_heuristic(b, a) - 1.0).abs() < 1e-6);
+        }
+        assert_eq!(power_heuristic(0.0, 0.0), 0.0);
+    }
+}

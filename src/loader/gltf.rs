@@ -28,7 +28,8 @@ pub fn load(path: &Path) -> Result<SceneDesc, LoadError> {
     if !path.is_file() {
         return Err(fail(if path.exists() { "not a file".into() } else { "no such file".into() }));
     }
-    let (doc, buffers, images) = gltf::import(path).map_err(|e| fail(describe(&e)))?;
+    let bytes = std::fs::read(path).map_err(|e| fail(e.to_string()))?;
+    let (doc, buffers, images) = import(&bytes, path.parent()).map_err(fail)?;
     let name = path.file_stem().map_or("scene".into(), |s| s.to_string_lossy().into_owned());
     convert(&doc, &buffers, images, name).map_err(fail)
 }
@@ -36,8 +37,38 @@ pub fn load(path: &Path) -> Result<SceneDesc, LoadError> {
 /// Loads glTF from memory (embedded or GLB buffers only).
 pub fn load_slice(bytes: &[u8], name: &str) -> Result<SceneDesc, LoadError> {
     let fail = |reason: String| LoadError::File { path: name.into(), reason };
-    let (doc, buffers, images) = gltf::import_slice(bytes).map_err(|e| fail(describe(&e)))?;
+    let (doc, buffers, images) = import(bytes, None).map_err(fail)?;
     convert(&doc, &buffers, images, name.into()).map_err(fail)
+}
+
+/// Parses, validates and reads buffers and images (relative to `base`, if given).
+fn import(bytes: &[u8], base: Option<&Path>) -> Result<(Document, Vec<buffer::Data>, Vec<image::Data>), String> {
+    let gltf::Gltf { document, blob } = gltf::Gltf::from_slice_without_validation(bytes).map_err(|e| describe(&e))?;
+    check_position_accessors(&document)?;
+    let document = Document::from_json(document.into_json()).map_err(|e| describe(&e))?;
+    let buffers = gltf::import_buffers(&document, base, blob).map_err(|e| describe(&e))?;
+    let images = gltf::import_images(&document, base, &buffers).map_err(|e| describe(&e))?;
+    Ok((document, buffers, images))
+}
+
+/// Rejects a POSITION attribute naming a missing accessor: gltf-json 1.4.1's validation
+/// indexes the accessor list with it unchecked and would panic.
+fn check_position_accessors(document: &Document) -> Result<(), String> {
+    use gltf::json::{mesh::Semantic as JsonSemantic, validation::Checked};
+    let json = document.as_json();
+    for (m, mesh) in json.meshes.iter().enumerate() {
+        for (p, prim) in mesh.primitives.iter().enumerate() {
+            if let Some(index) = prim.attributes.get(&Checked::Valid(JsonSemantic::Positions))
+                && index.value() >= json.accessors.len()
+            {
+                return Err(format!(
+                    "invalid glTF: meshes[{m}].primitives[{p}].attributes.POSITION: accessor {} does not exist",
+                    index.value()
+                ));
+            }
+        }
+    }
+    Ok(())
 }
 
 /// One line for a gltf error (validation errors list only the first).

@@ -129,11 +129,12 @@ impl Scene {
         let mut positions = Vec::new();
         let mut attrs = Vec::new();
         let (mut dropped_bad, mut dropped_degenerate) = (0usize, 0usize);
+        // Triangles with bad vertices or zero area are dropped: they cannot be hit or sampled.
         for mesh in &meshes {
             let material = mesh.material.min(materials.len() as u32 - 1);
             for tri in mesh.indices.chunks_exact(3) {
                 let idx = [tri[0] as usize, tri[1] as usize, tri[2] as usize];
-                let p = idx.map(|i| mesh.positions[i]);
+                let p = idx.map(|i| mesh.positions.get(i).copied().unwrap_or(Vec3::NAN));
                 if !p.iter().all(|v| v.is_finite()) {
                     dropped_bad += 1;
                     continue;
@@ -146,13 +147,13 @@ impl Scene {
                 }
                 let normals = match &mesh.normals {
                     Some(n) => idx.map(|i| {
-                        let n = n[i].normalize_or_zero();
+                        let n = n.get(i).map_or(Vec3::ZERO, |n| n.normalize_or_zero());
                         if n == Vec3::ZERO || !n.is_finite() { ng } else { n }
                     }),
                     None => [ng; 3],
                 };
                 let uvs = match &mesh.uvs {
-                    Some(uv) => idx.map(|i| if uv[i].is_finite() { uv[i] } else { Vec2::ZERO }),
+                    Some(uv) => idx.map(|i| uv.get(i).copied().filter(|v| v.is_finite()).unwrap_or(Vec2::ZERO)),
                     None => [Vec2::ZERO; 3],
                 };
                 positions.push(p);
@@ -160,7 +161,7 @@ impl Scene {
             }
         }
         if dropped_bad > 0 {
-            warnings.push(format!("dropped {dropped_bad} triangles with NaN or infinite vertices"));
+            warnings.push(format!("dropped {dropped_bad} triangles with missing, NaN or infinite vertices"));
         }
         if dropped_degenerate > 0 {
             warnings.push(format!("dropped {dropped_degenerate} degenerate (zero-area) triangles"));

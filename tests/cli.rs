@@ -1,0 +1,82 @@
+//! The `lucent` command as a user runs it: outputs, and one-line errors with a non-zero
+//! exit and no file left behind for bad input.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn lucent(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_lucent")).args(args).output().expect("runs")
+}
+
+fn out_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("lucent-cli-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn fails_in_one_line(args: &[&str], needle: &str, out: &Path) {
+    let o = lucent(args);
+    assert!(!o.status.success(), "{args:?} succeeded");
+    let err = stderr(&o);
+    assert_eq!(err.trim_end().lines().count(), 1, "{args:?}: one line, got {err:?}");
+    assert!(err.contains(needle), "{args:?}: {err:?} lacks {needle:?}");
+    assert!(!out.exists(), "{args:?} left {out:?} behind");
+    if let Ok(entries) = std::fs::read_dir(out.parent().unwrap()) {
+        let leftovers: Vec<_> = entries.collect();
+        assert!(leftovers.is_empty(), "{args:?} left partial files: {leftovers:?}");
+    }
+}
+
+#[test]
+fn renders_png_and_exr_and_reports_figures() {
+    let dir = out_dir("ok");
+    for name in ["cornell.png", "cornell.exr"] {
+        let out = dir.join(name);
+        let o = lucent(&["render", "--spp", "4", "--width", "40", "--height", "30", "--out", out.to_str().unwrap()]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let stdout = String::from_utf8_lossy(&o.stdout);
+        assert!(
+            stdout.contains("4 spp at 40x30") && stdout.contains("Mrays/s") && stdout.contains("0 NaN/Inf"),
+            "{stdout}"
+        );
+        let img = image::open(&out).unwrap();
+        assert_eq!((img.width(), img.height()), (40, 30));
+    }
+    let exr = image::open(dir.join("cornell.exr")).unwrap().into_rgb32f();
+    let max = exr.as_raw().iter().fold(0.0f32, |a, &b| a.max(b));
+    assert!(max > 1.0, "EXR keeps linear HDR radiance (the light is {max})");
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+#[test]
+fn a_time_budget_renders_what_fits() {
+    let out = out_dir("time").join("t.exr");
+    let o = lucent(&["render", "--time", "0.5", "--width", "16", "--height", "16", "--out", out.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(out.exists());
+}
+
+#[test]
+fn bad_input_gives_one_line_errors_and_no_file() {
+    let dir = out_dir("bad");
+    let out = dir.join("x.png");
+    let o = out.to_str().unwrap();
+    fails_in_one_line(&["render", "/no/such/scene.glb", "--out", o], "no such file", &out);
+    fails_in_one_line(&["render", "--lights", "bogus", "--out", o], "bogus", &out);
+    fails_in_one_line(&["render", "--spp", "0", "--out", o], "at least 1", &out);
+    fails_in_one_line(&["render", "--width", "0", "--out", o], "image size", &out);
+    fails_in_one_line(&["render", "--time", "-1", "--out", o], "--time", &out);
+    fails_in_one_line(&["render", "--clamp", "-2", "--out", o], "firefly clamp", &out);
+    fails_in_one_line(&["render", "--out", dir.join("x.jpg").to_str().unwrap()], ".png or .exr", &dir.join("x.jpg"));
+    let unwritable = dir.join("missing-dir/x.png");
+    fails_in_one_line(&["render", "--out", unwritable.to_str().unwrap()], "cannot write", &unwritable);
+    let garbage = out_dir("garbage").join("broken.glb");
+    std::fs::write(&garbage, b"glTF\x02\x00\x00\x00garbage").unwrap();
+    fails_in_one_line(&["render", garbage.to_str().unwrap(), "--out", o], "broken.glb", &out);
+}

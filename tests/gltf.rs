@@ -1,0 +1,163 @@
+//! The glTF loader on real files (counts of triangles, materials, lights, cameras), on the
+//! built-in Cornell box, on node transforms, and on malformed input (errors, not panics).
+
+mod common;
+
+use base64::Engine;
+use glam::Vec3;
+use lucent::loader::{builtin, gltf};
+use lucent::scene::{Scene, SceneDesc};
+use serde_json::{Value, json};
+use std::path::PathBuf;
+
+fn triangles(desc: &SceneDesc) -> usize {
+    desc.meshes.iter().map(|m| m.indices.len() / 3).sum()
+}
+
+fn load(rel: &str) -> SceneDesc {
+    gltf::load(&common::asset(rel)).unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn temp(name: &str, bytes: &[u8]) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("lucent-gltf-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join(name);
+    std::fs::write(&path, bytes).unwrap();
+    path
+}
+
+/// A one-triangle glTF with an embedded buffer; `node` and `indices` are spliced in.
+fn one_triangle(node: Value, indices: [u32; 3]) -> Vec<u8> {
+    let mut bytes = Vec::new();
+    for v in [[0.0f32, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]] {
+        v.iter().for_each(|c| bytes.extend_from_slice(&c.to_le_bytes()));
+    }
+    for _ in 0..3 {
+        [1.0f32, 0.0, 1.0].map(|c: f32| c / 2f32.sqrt()).iter().for_each(|c| bytes.extend_from_slice(&c.to_le_bytes()));
+    }
+    indices.iter().for_each(|i| bytes.extend_from_slice(&i.to_le_bytes()));
+    let uri =
+        format!("data:application/octet-stream;base64,{}", base64::engine::general_purpose::STANDARD.encode(&bytes));
+    let doc = json!({
+        "asset": {"version": "2.0"},
+        "scene": 0,
+        "scenes": [{"nodes": [0]}],
+        "nodes": [node],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "NORMAL": 1}, "indices": 2}]}],
+        "buffers": [{"byteLength": bytes.len(), "uri": uri}],
+        "bufferViews": [
+            {"buffer": 0, "byteOffset": 0, "byteLength": 36},
+            {"buffer": 0, "byteOffset": 36, "byteLength": 36},
+            {"buffer": 0, "byteOffset": 72, "byteLength": 12}
+        ],
+        "accessors": [
+            {"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0]},
+            {"bufferView": 1, "componentType": 5126, "count": 3, "type": "VEC3"},
+            {"bufferView": 2, "componentType": 5125, "count": 3, "type": "SCALAR"}
+        ]
+    });
+    serde_json::to_vec(&doc).unwrap()
+}
+
+#[test]
+fn box_glb_has_its_twelve_triangles_and_one_material() {
+    let desc = load("Box/glTF-Binary/Box.glb");
+    assert_eq!((triangles(&desc), desc.materials.len(), desc.lights.len(), desc.cameras.len()), (12, 1, 0, 0));
+    let scene = Scene::build(desc);
+    assert_eq!(scene.geometry.len(), 12);
+    assert!(!scene.features.emissive && !scene.features.textures && scene.features.glossy);
+}
+
+#[test]
+fn emissive_strength_test_reads_strengths_above_one() {
+    let desc = load("EmissiveStrengthTest/glTF-Binary/EmissiveStrengthTest.glb");
+    assert_eq!((triangles(&desc), desc.materials.len()), (90, 6));
+    let brightest = desc.materials.iter().map(|m| m.emissive.max_element()).fold(0.0f32, f32::max);
+    assert!(brightest > 1.0, "emissiveFactor x emissiveStrength exceeds 1: {brightest}");
+    let scene = Scene::build(desc);
+    assert!(scene.features.emissive && !scene.light_sampler.is_empty());
+}
+
+#[test]
+fn lights_punctual_lamp_has_five_point_lights_and_warns_of_transmission() {
+    let desc = load("LightsPunctualLamp/glTF/LightsPunctualLamp.gltf");
+    assert_eq!((triangles(&desc), desc.materials.len(), desc.lights.len()), (6000, 3, 5));
+    assert!(desc.lights.iter().all(|l| l.kind == lucent::scene::light::PunctualKind::Point));
+    let max_cd = desc.lights.iter().map(|l| l.intensity.max_element()).fold(0.0f32, f32::max);
+    assert!((max_cd - 180.0).abs() < 1.0, "intensity in candela, used 1:1: {max_cd}");
+    assert!(desc.warnings.iter().any(|w| w.contains("KHR_materials_transmission")), "{:?}", desc.warnings);
+    assert!(Scene::build(desc).features.punctual);
+}
+
+#[test]
+fn metal_rough_spheres_load_all_triangles_and_the_default_material() {
+    let desc = load("MetalRoughSpheresNoTextures/glTF-Binary/MetalRoughSpheresNoTextures.glb");
+    assert_eq!(triangles(&desc), 1_040_409);
+    assert_eq!(desc.materials.len(), 99, "98 materials plus the glTF default for one unassigned primitive");
+    let scene = Scene::build(desc);
+    let dropped: usize = scene
+        .warnings
+        .iter()
+        .filter_map(|w| {
+            w.strip_prefix("dropped ").and_then(|r| r.split(' ').next()).and_then(|n| n.parse::<usize>().ok())
+        })
+        .sum();
+    assert_eq!(scene.geometry.len() + dropped, 1_040_409);
+}
+
+#[test]
+fn the_built_in_scene_is_the_shared_cornell_box() {
+    let file = gltf::load(&common::shared().join("scenes/cornell-box.gltf")).unwrap();
+    let builtin = builtin::cornell_box();
+    assert_eq!(triangles(&file), triangles(&builtin));
+    assert_eq!(triangles(&builtin), 32);
+    assert_eq!(file.materials, builtin.materials);
+    assert_eq!(file.cameras, builtin.cameras);
+    for (a, b) in file.meshes.iter().zip(&builtin.meshes) {
+        assert_eq!((&a.positions, &a.indices), (&b.positions, &b.indices));
+    }
+    let light = builtin.materials.iter().find(|m| m.name == "light").unwrap();
+    assert!((light.emissive - Vec3::new(17.0, 12.0, 4.0)).abs().max_element() < 1e-4);
+    let white = builtin.materials.iter().find(|m| m.name == "white").unwrap();
+    assert_eq!((white.specular, white.metallic), (0.0, 0.0), "exactly Lambertian walls");
+    let (_, cam) = &builtin.cameras[0];
+    assert!((cam.position - Vec3::new(0.278, 0.273, -0.8)).length() < 1e-6);
+    assert!((cam.rotation * -Vec3::Z - Vec3::Z).length() < 1e-6, "looks into the box along +z");
+}
+
+#[test]
+fn node_transforms_flatten_with_inverse_transpose_normals_and_mirrored_winding() {
+    let path = temp("mirror.gltf", &one_triangle(json!({"mesh": 0, "scale": [-2.0, 1.0, 1.0]}), [0, 1, 2]));
+    let scene = Scene::build(gltf::load(&path).unwrap());
+    let attrs = scene.geometry.attrs(0);
+    // Mirroring flips the winding back, so the front still faces +z.
+    assert!((attrs.ng - Vec3::Z).length() < 1e-6, "ng {}", attrs.ng);
+    // Normal (1, 0, 1)/sqrt 2 under diag(-2, 1, 1): inverse transpose diag(-1/2, 1, 1).
+    let want = Vec3::new(-0.5, 0.0, 1.0).normalize();
+    assert!((attrs.normals[0] - want).length() < 1e-6, "n {}", attrs.normals[0]);
+    assert_eq!(scene.geometry.positions(0).iter().map(|p| p.x.abs()).fold(0.0f32, f32::max), 2.0);
+}
+
+#[test]
+fn malformed_files_give_one_line_errors() {
+    let cases: Vec<(&str, PathBuf)> = vec![
+        ("no such file", common::asset("Box/glTF-Binary/Missing.glb")),
+        ("truncated", {
+            let bytes = std::fs::read(common::asset("Box/glTF-Binary/Box.glb")).unwrap();
+            temp("truncated.glb", &bytes[..bytes.len() / 2])
+        }),
+        ("dangling accessor", {
+            let text = std::fs::read_to_string(common::shared().join("scenes/cornell-box.gltf")).unwrap();
+            let mut doc: Value = serde_json::from_str(&text).unwrap();
+            doc["meshes"][0]["primitives"][0]["attributes"]["POSITION"] = json!(999);
+            temp("dangling.gltf", &serde_json::to_vec(&doc).unwrap())
+        }),
+        ("index out of range", temp("index.gltf", &one_triangle(json!({"mesh": 0}), [0, 1, 7]))),
+        ("not json", temp("garbage.gltf", b"{ this is not glTF")),
+    ];
+    for (what, path) in cases {
+        let err = gltf::load(&path).err().unwrap_or_else(|| panic!("{what}: loaded")).to_string();
+        assert!(!err.contains('\n'), "{what}: one line: {err}");
+        assert!(err.contains(&*path.to_string_lossy()), "{what}: names the file: {err}");
+    }
+}
