@@ -147,20 +147,22 @@ impl Watertight {
     }
 
     /// Distance parameter in (0, tmax) and barycentrics, or None.
+    #[inline]
     fn intersect(&self, p: &[Vec3; 3], tmax: f32) -> Option<(f32, [f32; 3])> {
         let [kx, ky, kz] = self.k;
         let s = self.shear;
-        let rel = p.map(|v| v - self.o);
-        let x = rel.map(|a| a[kx] - s.x * a[kz]);
-        let y = rel.map(|a| a[ky] - s.y * a[kz]);
-        let mut u = x[2] * y[1] - y[2] * x[1];
-        let mut v = x[0] * y[2] - y[0] * x[2];
-        let mut w = x[1] * y[0] - y[1] * x[0];
+        let (a, b, c) = (p[0] - self.o, p[1] - self.o, p[2] - self.o);
+        let (ax, ay) = (a[kx] - s.x * a[kz], a[ky] - s.y * a[kz]);
+        let (bx, by) = (b[kx] - s.x * b[kz], b[ky] - s.y * b[kz]);
+        let (cx, cy) = (c[kx] - s.x * c[kz], c[ky] - s.y * c[kz]);
+        let mut u = cx * by - cy * bx;
+        let mut v = ax * cy - ay * cx;
+        let mut w = bx * ay - by * ax;
         if u == 0.0 || v == 0.0 || w == 0.0 {
-            let (x, y) = (x.map(f64::from), y.map(f64::from));
-            u = (x[2] * y[1] - y[2] * x[1]) as f32;
-            v = (x[0] * y[2] - y[0] * x[2]) as f32;
-            w = (x[1] * y[0] - y[1] * x[0]) as f32;
+            let d = |x1: f32, y1: f32, x2: f32, y2: f32| (x1 as f64 * y2 as f64 - y1 as f64 * x2 as f64) as f32;
+            u = d(cx, cy, bx, by);
+            v = d(ax, ay, cx, cy);
+            w = d(bx, by, ax, ay);
         }
         if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
             return None;
@@ -169,9 +171,7 @@ impl Watertight {
         if det == 0.0 {
             return None;
         }
-        let z = rel.map(|a| s.z * a[kz]);
-        let t_scaled = u * z[0] + v * z[1] + w * z[2];
-        let t = t_scaled / det;
+        let t = (u * (s.z * a[kz]) + v * (s.z * b[kz]) + w * (s.z * c[kz])) / det;
         if !(t > 0.0 && t < tmax) {
             return None;
         }
