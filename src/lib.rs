@@ -9,14 +9,16 @@
 //!     -> integrator  (path tracer with its sampling toggles, specialised per feature set)
 //!     -> film        (per-pixel f64 sums owned by tiles)
 //!     -> render      (session: workers, generations, snapshots)
-//!     -> cli         (headless render, benchmarks)
+//!     -> viewer      (winit + wgpu + egui window)  |  cli (headless render, benchmarks)
 //! ```
 
 pub mod bsdf;
 pub mod cli;
+pub mod config;
 pub mod film;
 pub mod integrator;
 pub mod loader;
 pub mod math;
 pub mod render;
 pub mod scene;
+pub mod viewer;

@@ -1,21 +1,27 @@
-//! Command-line arguments (clap derive) and their mapping onto render settings.
+//! Command-line arguments (clap derive) and how they resolve into render settings.
 
+use crate::config::ViewFile;
+use crate::film::tonemap::{Display, Tonemap};
 use crate::integrator::{LightSampling, PixelSampling, Settings};
+use crate::scene::camera::Camera;
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use std::path::PathBuf;
 
-/// Lucent: a physically based path tracer for glTF scenes.
+/// Lucent: a physically based path tracer for glTF scenes. With no command, opens the
+/// viewer on the built-in Cornell box.
 #[derive(Parser, Debug)]
 #[command(version, about)]
 pub struct Cli {
-    /// What to do.
+    /// What to do [default: view].
     #[command(subcommand)]
-    pub command: Command,
+    pub command: Option<Command>,
 }
 
 /// Subcommands.
 #[derive(Subcommand, Debug)]
 pub enum Command {
+    /// Open the interactive viewer and watch the scene converge.
+    View(ViewArgs),
     /// Render a scene headless to a PNG (tonemapped sRGB) or OpenEXR (linear) file.
     Render(RenderArgs),
     /// Measure samples/s and rays/s on the built-in Cornell box.
@@ -31,92 +37,95 @@ pub enum Switch {
     Off,
 }
 
-/// Pixel sampling modes.
-#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-pub enum PixelMode {
-    /// Independent uniform positions.
-    Random,
-    /// Jittered strata.
-    Stratified,
-    /// Uniform sub-pixel grid (deterministic, biased).
-    Grid,
-}
-
-/// Light sampling modes.
-#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-pub enum LightMode {
-    /// BSDF sampling only.
-    Off,
-    /// Explicit light sampling without double counting.
-    Explicit,
-    /// Multiple importance sampling of lights and BSDF.
-    Mis,
-}
-
-/// Options shared by everything that renders.
-#[derive(Args, Debug, Clone)]
+/// Options shared by everything that renders. Each one given overrides the view file.
+#[derive(Args, Debug, Clone, Default)]
 pub struct RenderOptions {
-    /// Image width in pixels.
-    #[arg(long, default_value_t = 512)]
-    pub width: u32,
-    /// Image height in pixels.
-    #[arg(long, default_value_t = 512)]
-    pub height: u32,
-    /// Seed of the random streams.
-    #[arg(long, default_value_t = 0)]
-    pub seed: u64,
-    /// Maximum bounces (pbrt-v4 maxdepth: 0 emitters only, 1 direct light).
-    #[arg(long, default_value_t = 7)]
-    pub max_depth: u32,
-    /// Bounce from which Russian roulette may end paths.
-    #[arg(long, default_value_t = 3)]
-    pub rr_depth: u32,
-    /// How camera rays sample the pixel area.
-    #[arg(long, value_enum, default_value_t = PixelMode::Random)]
-    pub pixel_sampling: PixelMode,
+    /// Camera and settings saved from the viewer (TOML); options given here override it.
+    #[arg(long)]
+    pub view: Option<PathBuf>,
+    /// Image width in pixels [default: 512; the viewer follows its window].
+    #[arg(long)]
+    pub width: Option<u32>,
+    /// Image height in pixels [default: 512; the viewer follows its window].
+    #[arg(long)]
+    pub height: Option<u32>,
+    /// Seed of the random streams [default: 0].
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Maximum bounces, as pbrt-v4's maxdepth: 0 emitters only, 1 direct light [default: 7].
+    #[arg(long)]
+    pub max_depth: Option<u32>,
+    /// Bounce from which Russian roulette may end paths [default: 3].
+    #[arg(long)]
+    pub rr_depth: Option<u32>,
+    /// How camera rays sample the pixel area [default: random].
+    #[arg(long, value_enum)]
+    pub pixel_sampling: Option<PixelSampling>,
     /// Strata per pixel axis for stratified and grid sampling [default: sqrt(spp), at most 16, or 4].
     #[arg(long)]
     pub strata: Option<u32>,
-    /// Importance sampling of BSDF directions (off: uniform hemisphere).
-    #[arg(long, value_enum, default_value_t = Switch::On)]
-    pub importance: Switch,
-    /// Light sampling strategy.
-    #[arg(long, value_enum, default_value_t = LightMode::Mis)]
-    pub lights: LightMode,
+    /// Importance sampling of BSDF directions; off draws uniform hemisphere directions [default: on].
+    #[arg(long, value_enum)]
+    pub importance: Option<Switch>,
+    /// Light sampling strategy [default: mis].
+    #[arg(long, value_enum)]
+    pub lights: Option<LightSampling>,
     /// Firefly clamp on a sample's largest component (biased; off unless given).
     #[arg(long, allow_negative_numbers = true)]
     pub clamp: Option<f32>,
+    /// Exposure in EV for display and PNG output [default: 0].
+    #[arg(long, allow_negative_numbers = true)]
+    pub exposure: Option<f32>,
+    /// Tone curve for display and PNG output [default: linear].
+    #[arg(long, value_enum)]
+    pub tonemap: Option<Tonemap>,
     /// Worker threads [default: one per core].
     #[arg(long)]
     pub threads: Option<usize>,
 }
 
+/// A render setup resolved from a view file and the command line.
+pub struct Resolved {
+    /// Render settings.
+    pub settings: Settings,
+    /// Display settings.
+    pub display: Display,
+    /// The camera from the view file, if any.
+    pub camera: Option<Camera>,
+}
+
 impl RenderOptions {
-    /// Render settings for these options and an optional sample target.
-    pub fn settings(&self, target_spp: Option<u32>) -> Settings {
-        let strata =
-            self.strata.unwrap_or_else(|| target_spp.map_or(4, |n| ((n as f64).sqrt().floor() as u32).clamp(1, 16)));
-        Settings {
-            width: self.width,
-            height: self.height,
-            seed: self.seed,
-            max_depth: self.max_depth,
-            rr_depth: self.rr_depth,
-            pixel_sampling: match self.pixel_sampling {
-                PixelMode::Random => PixelSampling::Random,
-                PixelMode::Stratified => PixelSampling::Stratified,
-                PixelMode::Grid => PixelSampling::Grid,
-            },
-            strata,
-            importance_sampling: self.importance == Switch::On,
-            light_sampling: match self.lights {
-                LightMode::Off => LightSampling::Off,
-                LightMode::Explicit => LightSampling::Explicit,
-                LightMode::Mis => LightSampling::Mis,
-            },
-            firefly_clamp: self.clamp,
-            target_spp,
+    /// Settings from the view file (or defaults), overridden by every option given.
+    pub fn resolve(&self, target_spp: Option<u32>) -> Result<Resolved, String> {
+        let view = match &self.view {
+            Some(path) => ViewFile::load(path)?,
+            None => ViewFile::default(),
+        };
+        let mut s = view.settings;
+        let default_strata = target_spp.map_or(4, |n| ((n as f64).sqrt().floor() as u32).clamp(1, 16));
+        s.strata = self.strata.unwrap_or(if self.view.is_some() { s.strata } else { default_strata });
+        s.width = self.width.unwrap_or(s.width);
+        s.height = self.height.unwrap_or(s.height);
+        s.seed = self.seed.unwrap_or(s.seed);
+        s.max_depth = self.max_depth.unwrap_or(s.max_depth);
+        s.rr_depth = self.rr_depth.unwrap_or(s.rr_depth);
+        s.pixel_sampling = self.pixel_sampling.unwrap_or(s.pixel_sampling);
+        s.importance_sampling = self.importance.map_or(s.importance_sampling, |i| i == Switch::On);
+        s.light_sampling = self.lights.unwrap_or(s.light_sampling);
+        s.firefly_clamp = self.clamp.or(s.firefly_clamp);
+        s.target_spp = target_spp;
+        s.validate().map_err(|e| e.to_string())?;
+        if self.threads == Some(0) {
+            return Err("--threads must be at least 1".into());
         }
+        let display = Display {
+            exposure: self.exposure.unwrap_or(view.display.exposure),
+            tonemap: self.tonemap.unwrap_or(view.display.tonemap),
+        };
+        if !display.exposure.is_finite() {
+            return Err("--exposure must be finite".into());
+        }
+        Ok(Resolved { settings: s, display, camera: view.camera })
     }
 }
 
@@ -131,12 +140,25 @@ pub struct RenderArgs {
     /// Render for this many seconds instead of a sample count (--spp then caps it).
     #[arg(long, allow_negative_numbers = true)]
     pub time: Option<f64>,
-    /// Exposure in EV applied before PNG tonemapping.
-    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
-    pub exposure: f32,
     /// Output file: .png (tonemapped sRGB) or .exr (linear float).
     #[arg(long, short)]
     pub out: PathBuf,
+    /// Shared render options.
+    #[command(flatten)]
+    pub options: RenderOptions,
+}
+
+/// `lucent view`.
+#[derive(Args, Debug, Default)]
+pub struct ViewArgs {
+    /// glTF scene (.gltf or .glb) [default: the built-in Cornell box].
+    pub scene: Option<PathBuf>,
+    /// Stop refining at this many samples per pixel.
+    #[arg(long)]
+    pub spp: Option<u32>,
+    /// Render in the window until --spp is reached, save this PNG and an EXR beside it, and exit.
+    #[arg(long, requires = "spp")]
+    pub screenshot: Option<PathBuf>,
     /// Shared render options.
     #[command(flatten)]
     pub options: RenderOptions,

@@ -1,8 +1,8 @@
-//! Command line: `lucent render` (headless render to PNG/EXR) and `lucent bench`.
+//! Command line: `lucent view` (the default), `lucent render` (headless, to PNG/EXR) and `lucent bench`.
 
-mod args;
+pub mod args;
 mod bench;
-mod render;
+pub mod render;
 
 use clap::Parser;
 use std::process::ExitCode;
@@ -22,7 +22,8 @@ pub fn main() -> ExitCode {
             return ExitCode::from(2);
         }
     };
-    let result = match cli.command {
+    let result = match cli.command.unwrap_or(args::Command::View(args::ViewArgs::default())) {
+        args::Command::View(v) => crate::viewer::run(&v),
         args::Command::Render(r) => render::run(&r),
         args::Command::Bench(b) => bench::run(&b),
     };

@@ -29,8 +29,8 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     {
         return Err(format!("--time {t} must be a positive number of seconds"));
     }
-    if args.spp == Some(0) || args.options.threads == Some(0) {
-        return Err("--spp and --threads must be at least 1".into());
+    if args.spp == Some(0) {
+        return Err("--spp must be at least 1".into());
     }
     check_writable(&args.out).map_err(|e| e.to_string())?;
     let target = match (args.spp, args.time) {
@@ -38,10 +38,11 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         (None, Some(_)) => None,
         (None, None) => Some(64),
     };
-    let settings = args.options.settings(target);
-    settings.validate().map_err(|e| e.to_string())?;
+    let resolved = args.options.resolve(target)?;
+    let settings = resolved.settings;
     let scene = Arc::new(load_scene(args.scene.as_deref())?);
-    let camera = scene.default_camera(settings.width as f32 / settings.height as f32);
+    let camera =
+        resolved.camera.unwrap_or_else(|| scene.default_camera(settings.width as f32 / settings.height as f32));
     let session = RenderSession::new(Job { scene: Arc::clone(&scene), camera, settings }, args.options.threads)
         .map_err(|e| e.to_string())?;
 
@@ -77,7 +78,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     let Some(snap) = latest else {
         return Err("the time budget ended before the first pass completed: give more --time".into());
     };
-    write_image(&args.out, snap.width, snap.height, &snap.mean, args.exposure).map_err(|e| e.to_string())?;
+    write_image(&args.out, snap.width, snap.height, &snap.mean, &resolved.display).map_err(|e| e.to_string())?;
     println!(
         "{}: {} spp at {}x{} in {:.2} s: {:.2} Msamples/s, {:.2} Mrays/s, {} NaN/Inf samples dropped; wrote {}",
         scene.name,

@@ -1,7 +1,7 @@
 //! Writing images: tonemapped sRGB PNG or linear 32-bit float OpenEXR, chosen by extension,
 //! written to a temporary file and renamed, so no half-written file is ever left behind.
 
-use super::tonemap::to_srgb8;
+use super::tonemap::Display;
 use glam::Vec3;
 use std::path::{Path, PathBuf};
 
@@ -54,14 +54,20 @@ pub fn check_writable(path: &Path) -> Result<Format, OutputError> {
     Ok(format)
 }
 
-/// Writes a row-major linear image, tonemapped with `exposure_ev` for PNG.
-pub fn write_image(path: &Path, width: u32, height: u32, pixels: &[Vec3], exposure_ev: f32) -> Result<(), OutputError> {
+/// Writes a row-major linear image, shown through `display` for PNG.
+pub fn write_image(
+    path: &Path,
+    width: u32,
+    height: u32,
+    pixels: &[Vec3],
+    display: &Display,
+) -> Result<(), OutputError> {
     let format = format_of(path)?;
     let tmp = temp_path(path);
     let err = |e: &dyn std::fmt::Display| OutputError::Write { path: path.to_owned(), reason: e.to_string() };
     let result = match format {
         Format::Png => {
-            let bytes: Vec<u8> = pixels.iter().flat_map(|&p| to_srgb8(p, exposure_ev)).collect();
+            let bytes: Vec<u8> = pixels.iter().flat_map(|&p| display.to_srgb8(p)).collect();
             image::RgbImage::from_raw(width, height, bytes)
                 .expect("buffer matches size")
                 .save_with_format(&tmp, image::ImageFormat::Png)
@@ -93,7 +99,7 @@ mod tests {
         std::fs::create_dir_all(&dir).unwrap();
         let path = dir.join("x.exr");
         let pixels = vec![Vec3::new(0.1, 2.5, 1e4), Vec3::new(0.0, 1e-6, 3.0)];
-        write_image(&path, 2, 1, &pixels, 0.0).unwrap();
+        write_image(&path, 2, 1, &pixels, &Display::default()).unwrap();
         let back = image::open(&path).unwrap().into_rgb32f();
         assert_eq!(back.as_raw().as_slice(), &[0.1, 2.5, 1e4, 0.0, 1e-6, 3.0]);
         assert!(format_of(Path::new("a.jpg")).is_err());

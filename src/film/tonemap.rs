@@ -1,19 +1,84 @@
-//! Display transform: exposure, clamp and the sRGB encoding; the accumulated data is never touched.
+//! Display transform: exposure, a tone curve and the sRGB encoding; the accumulated data
+//! is never touched.
 
 use glam::Vec3;
+use serde::{Deserialize, Serialize};
+
+/// Tone curves mapping scene-linear radiance to display-linear [0, 1].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "kebab-case")]
+pub enum Tonemap {
+    /// Clamp to [0, 1]: radiometrically faithful below 1.
+    #[default]
+    Linear,
+    /// Narkowicz's fit of the ACES filmic curve (2015).
+    Aces,
+    /// Khronos PBR Neutral (2024): keeps base colours faithful, compresses highlights.
+    PbrNeutral,
+}
+
+impl Tonemap {
+    /// Applies the curve to one linear colour.
+    pub fn apply(self, c: Vec3) -> Vec3 {
+        match self {
+            Tonemap::Linear => c,
+            Tonemap::Aces => (c * (2.51 * c + 0.03)) / (c * (2.43 * c + 0.59) + 0.14),
+            Tonemap::PbrNeutral => pbr_neutral(c),
+        }
+        .clamp(Vec3::ZERO, Vec3::ONE)
+    }
+}
+
+/// Khronos PBR Neutral tone mapping, from the reference implementation of the spec.
+fn pbr_neutral(mut c: Vec3) -> Vec3 {
+    const START: f32 = 0.8 - 0.04;
+    const DESATURATION: f32 = 0.15;
+    let x = c.min_element();
+    let offset = if x < 0.08 { x - 6.25 * x * x } else { 0.04 };
+    c -= offset;
+    let peak = c.max_element();
+    if peak < START {
+        return c;
+    }
+    let d = 1.0 - START;
+    let new_peak = 1.0 - d * d / (peak + d - START);
+    c *= new_peak / peak;
+    let g = 1.0 - 1.0 / (DESATURATION * (peak - new_peak) + 1.0);
+    c.lerp(Vec3::splat(new_peak), g)
+}
 
 /// sRGB opto-electronic transfer function (IEC 61966-2-1) for a linear value in [0, 1].
 pub fn linear_to_srgb(c: f32) -> f32 {
     if c <= 0.003_130_8 { 12.92 * c } else { 1.055 * c.powf(1.0 / 2.4) - 0.055 }
 }
 
-/// Linear radiance to 8-bit sRGB after scaling by 2^`exposure_ev` and clamping to [0, 1].
-pub fn to_srgb8(radiance: Vec3, exposure_ev: f32) -> [u8; 3] {
-    let scaled = radiance * exposure_ev.exp2();
-    scaled.to_array().map(|c| {
-        let c = if c.is_finite() { c.clamp(0.0, 1.0) } else { 0.0 };
-        (linear_to_srgb(c) * 255.0 + 0.5) as u8
-    })
+/// Entries of the sRGB encoding table over display-linear [0, 1].
+const SRGB_LUT_SIZE: usize = 4096;
+
+/// 8-bit sRGB codes for display-linear values i / (SRGB_LUT_SIZE - 1): the encoding costs a
+/// lookup instead of a `powf` per channel (within one code of the exact encoding).
+static SRGB_LUT: std::sync::LazyLock<Vec<u8>> = std::sync::LazyLock::new(|| {
+    (0..SRGB_LUT_SIZE).map(|i| (linear_to_srgb(i as f32 / (SRGB_LUT_SIZE - 1) as f32) * 255.0 + 0.5) as u8).collect()
+});
+
+/// How linear radiance is shown: exposure in EV, then a tone curve, then sRGB.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct Display {
+    /// Exposure in stops (radiance is scaled by 2^exposure).
+    pub exposure: f32,
+    /// Tone curve.
+    pub tonemap: Tonemap,
+}
+
+impl Display {
+    /// Linear radiance to 8-bit sRGB; non-finite values show as black.
+    pub fn to_srgb8(&self, radiance: Vec3) -> [u8; 3] {
+        let scaled = radiance * self.exposure.exp2();
+        let scaled = if scaled.is_finite() { scaled } else { Vec3::ZERO };
+        let lut = &*SRGB_LUT;
+        self.tonemap.apply(scaled).to_array().map(|c| lut[(c * (SRGB_LUT_SIZE - 1) as f32 + 0.5) as usize])
+    }
 }
 
 #[cfg(test)]
@@ -22,9 +87,32 @@ mod tests {
 
     #[test]
     fn encodes_black_white_and_mid_grey() {
-        assert_eq!(to_srgb8(Vec3::ZERO, 0.0), [0, 0, 0]);
-        assert_eq!(to_srgb8(Vec3::ONE, 0.0), [255, 255, 255]);
-        assert_eq!(to_srgb8(Vec3::splat(0.2158605), 0.0), [128, 128, 128]);
-        assert_eq!(to_srgb8(Vec3::splat(0.2158605 / 2.0), 1.0), [128, 128, 128]);
+        let d = Display::default();
+        assert_eq!(d.to_srgb8(Vec3::ZERO), [0, 0, 0]);
+        assert_eq!(d.to_srgb8(Vec3::ONE), [255, 255, 255]);
+        assert_eq!(d.to_srgb8(Vec3::splat(0.2158605)), [128, 128, 128]);
+        let brighter = Display { exposure: 1.0, ..d };
+        assert_eq!(brighter.to_srgb8(Vec3::splat(0.2158605 / 2.0)), [128, 128, 128]);
+        assert_eq!(d.to_srgb8(Vec3::NAN), [0, 0, 0]);
+        for i in 0..=1000 {
+            let c = i as f32 / 1000.0;
+            let exact = linear_to_srgb(c) * 255.0;
+            assert!((d.to_srgb8(Vec3::splat(c))[0] as f32 - exact).abs() <= 1.0, "within one code at {c}");
+        }
+    }
+
+    #[test]
+    fn tone_curves_are_monotonic_and_bounded() {
+        for op in [Tonemap::Linear, Tonemap::Aces, Tonemap::PbrNeutral] {
+            let mut last = -1.0f32;
+            for i in 0..2000 {
+                let v = op.apply(Vec3::splat(i as f32 * 0.01)).x;
+                assert!((0.0..=1.0).contains(&v) && v >= last, "{op:?} at {i}");
+                last = v;
+            }
+        }
+        assert!(Tonemap::PbrNeutral.apply(Vec3::splat(100.0)).x > 0.99, "highlights approach white");
+        let dark = Vec3::new(0.3, 0.2, 0.1);
+        assert!((Tonemap::PbrNeutral.apply(dark) - (dark - 0.04)).abs().max_element() < 1e-6, "base colours kept");
     }
 }

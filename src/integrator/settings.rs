@@ -1,9 +1,11 @@
 //! Render settings: a plain, comparable struct; any change restarts accumulation.
 
+use serde::{Deserialize, Serialize};
 use std::fmt;
 
 /// How camera rays sample the pixel's area.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "kebab-case")]
 pub enum PixelSampling {
     /// Independent uniform positions in the pixel (Monte Carlo).
     #[default]
@@ -17,7 +19,8 @@ pub enum PixelSampling {
 }
 
 /// How light sources are found (the textbook's "explicit light sampling", section 10.9).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "kebab-case")]
 pub enum LightSampling {
     /// Only BSDF-sampled rays that happen to hit an emitter find light.
     Off,
@@ -30,7 +33,8 @@ pub enum LightSampling {
 }
 
 /// Everything that determines the image, besides the scene and the camera.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
 pub struct Settings {
     /// Image width in pixels.
     pub width: u32,

@@ -60,6 +60,23 @@ impl Snapshot {
     pub fn rays_per_second(&self) -> f64 {
         self.rays as f64 / self.elapsed.as_secs_f64().max(1e-9)
     }
+
+    /// Estimated remaining noise: the mean over lit pixels of the relative standard error of
+    /// the pixel's luminance (its variance taken as sum w_c^2 var_c, ignoring the covariance
+    /// between channels). None before two samples per pixel.
+    pub fn relative_error(&self) -> Option<f64> {
+        let w = [0.2126f64, 0.7152, 0.0722];
+        let (mut sum, mut n) = (0.0f64, 0usize);
+        for (m, v) in self.mean.iter().zip(&self.variance) {
+            let lum: f64 = (0..3).map(|c| w[c] * m[c] as f64).sum();
+            if lum > 0.0 {
+                let var: f64 = (0..3).map(|c| w[c] * w[c] * v[c] as f64).sum();
+                sum += var.sqrt() / lum;
+                n += 1;
+            }
+        }
+        (self.spp >= 2 && n > 0).then(|| sum / n as f64)
+    }
 }
 
 struct Pending {
@@ -97,6 +114,17 @@ pub struct RenderSession {
 impl RenderSession {
     /// Starts rendering `job` on `threads` workers (None: one per core).
     pub fn new(job: Job, threads: Option<usize>) -> Result<Self, InvalidSettings> {
+        Self::start(job, threads, false)
+    }
+
+    /// Like `new`, but the workers run at the lowest OS priority, so that an interactive UI
+    /// on the same cores (and a software rasteriser) always gets the CPU first; the workers
+    /// still take every idle cycle.
+    pub fn new_yielding(job: Job, threads: Option<usize>) -> Result<Self, InvalidSettings> {
+        Self::start(job, threads, true)
+    }
+
+    fn start(job: Job, threads: Option<usize>, yielding: bool) -> Result<Self, InvalidSettings> {
         job.settings.validate()?;
         let shared = Arc::new(Shared {
             generation: AtomicU64::new(0),
@@ -107,6 +135,12 @@ impl RenderSession {
         let mut builder = rayon::ThreadPoolBuilder::new().thread_name(|i| format!("lucent-render-{i}"));
         if let Some(n) = threads {
             builder = builder.num_threads(n.max(1));
+        }
+        if yielding {
+            // Best effort: if the OS refuses, the workers simply keep normal priority.
+            builder = builder.start_handler(|_| {
+                let _ = thread_priority::set_current_thread_priority(thread_priority::ThreadPriority::Min);
+            });
         }
         let pool = builder.build().map_err(|e| InvalidSettings(format!("cannot start workers: {e}")))?;
         let worker_shared = Arc::clone(&shared);

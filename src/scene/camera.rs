@@ -4,7 +4,7 @@ use super::geometry::Ray;
 use glam::{Quat, Vec2, Vec3};
 
 /// A perspective camera placed in the world.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Camera {
     /// Eye position.
     pub position: Vec3,

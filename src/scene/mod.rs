@@ -14,6 +14,7 @@ use geometry::{Geometry, Hit, TriAttrs};
 use glam::{Vec2, Vec3};
 use light::{LightRef, LightSampler, PunctualLight};
 use material::Material;
+use std::sync::Arc;
 use texture::{ColorSpace, Image, Texture};
 
 /// Effects a scene contains. The integrator is monomorphised over this set, so a scene
@@ -96,14 +97,14 @@ pub struct Surface {
 pub struct Scene {
     /// Name shown to the user.
     pub name: String,
-    /// Triangles and BVH.
-    pub geometry: Geometry,
+    /// Triangles and BVH (shared by edited copies of the scene).
+    pub geometry: Arc<Geometry>,
     /// Materials.
     pub materials: Vec<Material>,
     /// Textures.
     pub textures: Vec<Texture>,
-    /// Images behind the textures.
-    pub images: Vec<Image>,
+    /// Images behind the textures (shared by edited copies of the scene).
+    pub images: Arc<Vec<Image>>,
     /// Punctual lights.
     pub lights: Vec<PunctualLight>,
     /// Power-proportional choice among all lights.
@@ -171,20 +172,58 @@ impl Scene {
             .flatten()
             .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &v| (lo.min(v), hi.max(v)));
         let bounds = if positions.is_empty() { (Vec3::ZERO, Vec3::ZERO) } else { bounds };
-        let geometry = Geometry::build(positions, attrs);
-        let light_sampler = build_light_sampler(&geometry, &materials, &textures, &images, &lights, bounds);
-        let used: Vec<&Material> = {
-            let mut seen = vec![false; materials.len()];
-            (0..geometry.len() as u32).for_each(|t| seen[geometry.attrs(t).material as usize] = true);
-            materials.iter().zip(seen).filter(|(_, s)| *s).map(|(m, _)| m).collect()
+        let geometry = Arc::new(Geometry::build(positions, attrs));
+        let mut scene = Self {
+            name,
+            geometry,
+            materials,
+            textures,
+            images: Arc::new(images),
+            lights,
+            light_sampler: LightSampler::default(),
+            cameras,
+            bounds,
+            features: Features::default(),
+            warnings,
         };
-        let features = Features {
+        scene.update_lighting();
+        scene
+    }
+
+    /// A copy with other materials and punctual lights, sharing the BVH and the images: only
+    /// the light sampler and the feature set are rebuilt. Used by the viewer's editors.
+    pub fn with_edits(&self, materials: Vec<Material>, lights: Vec<PunctualLight>) -> Self {
+        let mut scene = Self {
+            name: self.name.clone(),
+            geometry: Arc::clone(&self.geometry),
+            materials,
+            textures: self.textures.clone(),
+            images: Arc::clone(&self.images),
+            lights,
+            light_sampler: LightSampler::default(),
+            cameras: self.cameras.clone(),
+            bounds: self.bounds,
+            features: Features::default(),
+            warnings: self.warnings.clone(),
+        };
+        scene.update_lighting();
+        scene
+    }
+
+    /// Rebuilds the light sampler and the feature set from the materials and lights.
+    fn update_lighting(&mut self) {
+        let (geometry, materials) = (&self.geometry, &self.materials);
+        self.light_sampler =
+            build_light_sampler(geometry, materials, &self.textures, &self.images, &self.lights, self.bounds);
+        let mut seen = vec![false; materials.len()];
+        (0..geometry.len() as u32).for_each(|t| seen[geometry.attrs(t).material as usize] = true);
+        let used: Vec<&Material> = materials.iter().zip(seen).filter(|(_, s)| *s).map(|(m, _)| m).collect();
+        self.features = Features {
             emissive: used.iter().any(|m| m.is_emissive()),
-            punctual: !lights.is_empty(),
+            punctual: !self.lights.is_empty(),
             textures: used.iter().any(|m| m.is_textured()),
             glossy: used.iter().any(|m| m.is_glossy()),
         };
-        Self { name, geometry, materials, textures, images, lights, light_sampler, cameras, bounds, features, warnings }
     }
 
     /// The file's first camera, or one that frames the scene's bounds.

@@ -1,0 +1,75 @@
+//! Saved views: a camera, render settings and display settings in a small TOML file,
+//! written by the viewer and read by both the viewer and `lucent render --view`.
+
+use crate::film::tonemap::Display;
+use crate::integrator::Settings;
+use crate::scene::camera::Camera;
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// Everything needed to reproduce a view of a scene.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct ViewFile {
+    /// The camera (the scene's default camera when absent).
+    pub camera: Option<Camera>,
+    /// Render settings.
+    pub settings: Settings,
+    /// Exposure and tone curve.
+    pub display: Display,
+}
+
+impl ViewFile {
+    /// Reads and validates a view file; errors are one line and name the file.
+    pub fn load(path: &Path) -> Result<Self, String> {
+        let fail = |e: &dyn std::fmt::Display| format!("cannot read view file {}: {e}", path.display());
+        let text = std::fs::read_to_string(path).map_err(|e| fail(&e))?;
+        let view: ViewFile = toml::from_str(&text).map_err(|e| fail(&e.message().replace('\n', " ")))?;
+        view.settings.validate().map_err(|e| fail(&e))?;
+        if let Some(c) = view.camera
+            && !(c.position.is_finite() && c.rotation.is_finite() && c.yfov > 0.0 && c.yfov < std::f32::consts::PI)
+        {
+            return Err(fail(&"the camera needs a finite position and rotation and 0 < yfov < pi"));
+        }
+        Ok(view)
+    }
+
+    /// Writes the view as TOML (via a temporary file, so a failed write leaves nothing).
+    pub fn save(&self, path: &Path) -> Result<(), String> {
+        let fail = |e: &dyn std::fmt::Display| format!("cannot write view file {}: {e}", path.display());
+        let text = toml::to_string_pretty(self).map_err(|e| fail(&e))?;
+        let tmp = path.with_extension("toml.partial");
+        std::fs::write(&tmp, text).and_then(|_| std::fs::rename(&tmp, path)).map_err(|e| {
+            let _ = std::fs::remove_file(&tmp);
+            fail(&e)
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::film::tonemap::Tonemap;
+    use crate::integrator::LightSampling;
+    use glam::Vec3;
+
+    #[test]
+    fn round_trips_through_toml_and_rejects_bad_values() {
+        let dir = std::env::temp_dir().join(format!("lucent-view-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let view = ViewFile {
+            camera: Some(Camera::look_at(Vec3::new(1.0, 2.0, 3.0), Vec3::ZERO, 0.7)),
+            settings: Settings { light_sampling: LightSampling::Explicit, max_depth: 12, ..Settings::default() },
+            display: Display { exposure: -1.5, tonemap: Tonemap::PbrNeutral },
+        };
+        let path = dir.join("v.toml");
+        view.save(&path).unwrap();
+        assert_eq!(ViewFile::load(&path).unwrap(), view);
+        std::fs::write(&path, "[settings]\nwidth = 0\n").unwrap();
+        assert!(ViewFile::load(&path).unwrap_err().contains("image size"));
+        std::fs::write(&path, "[settings]\nlight_sampling = \"sometimes\"\n").unwrap();
+        let err = ViewFile::load(&path).unwrap_err();
+        assert!(err.contains("v.toml") && !err.contains('\n'), "{err}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}

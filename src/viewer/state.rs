@@ -1,0 +1,391 @@
+//! The viewer's state apart from the window: scene, render session, view, editors, file
+//! loading and screenshots. Plain data around the session, so its logic is tested headless.
+//! The UI edits fields freely; `sync` turns any change into a restart of accumulation.
+
+use super::camera_control::CameraController;
+use crate::config::ViewFile;
+use crate::film::output::write_image;
+use crate::film::tonemap::Display;
+use crate::integrator::Settings;
+use crate::loader::gltf;
+use crate::render::{Job, RenderSession, Snapshot};
+use crate::scene::{Scene, camera::Camera, light::PunctualLight, material::Material};
+use glam::{UVec2, Vec2, Vec3};
+use rayon::prelude::*;
+use std::path::{Path, PathBuf};
+use std::sync::mpsc::{Receiver, TryRecvError};
+use std::sync::{Arc, atomic::AtomicBool, atomic::Ordering};
+use std::time::{Duration, Instant};
+
+/// Divisor of the resolution while the camera moves (a quick preview that keeps up).
+const PREVIEW_DIVISOR: u32 = 4;
+
+/// A scene being loaded on its own thread.
+struct Loading {
+    path: PathBuf,
+    building: Arc<AtomicBool>,
+    result: Receiver<Result<Scene, String>>,
+}
+
+/// What the session is rendering, to notice changes.
+#[derive(Clone)]
+struct JobKey {
+    scene: Arc<Scene>,
+    camera: Camera,
+    settings: Settings,
+}
+
+impl PartialEq for JobKey {
+    fn eq(&self, other: &Self) -> bool {
+        Arc::ptr_eq(&self.scene, &other.scene) && self.camera == other.camera && self.settings == other.settings
+    }
+}
+
+/// Material ids per pixel of one view, for highlighting the selection.
+struct IdBuffer {
+    key: (UVec2, Camera, usize),
+    ids: Vec<u32>,
+}
+
+/// Everything the viewer shows and edits.
+pub struct ViewerState {
+    /// The scene being rendered (replaced, not mutated, by edits).
+    pub scene: Arc<Scene>,
+    /// Where it came from (None: built in).
+    pub source: Option<PathBuf>,
+    original: (Vec<Material>, Vec<PunctualLight>),
+    session: RenderSession,
+    sent: JobKey,
+    /// Render settings at full resolution (width/height used when `fixed_size`).
+    pub settings: Settings,
+    /// Render at `settings.width` x `settings.height` instead of following the window.
+    pub fixed_size: bool,
+    /// Pixel size of the image area in the window.
+    pub viewport: UVec2,
+    /// Exposure and tone curve.
+    pub display: Display,
+    /// The view.
+    pub camera: CameraController,
+    /// Fly speed in scene units per second.
+    pub fly_speed: f32,
+    /// Render a low-resolution preview (set while the camera moves).
+    pub preview: bool,
+    /// Workers paused.
+    pub paused: bool,
+    /// Selected material, if any.
+    pub selected: Option<u32>,
+    /// The last error, shown until dismissed.
+    pub error: Option<String>,
+    /// The last notice (where a screenshot went, ...).
+    pub message: Option<String>,
+    /// Folder for screenshots.
+    pub screenshot_dir: String,
+    /// Path typed in the open field.
+    pub open_path: String,
+    /// Path of the view file to save or load.
+    pub view_path: String,
+    loading: Option<Loading>,
+    threads: Option<usize>,
+    restarted: Instant,
+    /// Times from a restart to the first image of the new job.
+    pub latencies: Vec<Duration>,
+    awaiting_first_image: bool,
+    ids: Option<IdBuffer>,
+}
+
+impl ViewerState {
+    /// Starts rendering `scene` from `camera` (or the scene's default view).
+    pub fn new(
+        scene: Scene,
+        source: Option<PathBuf>,
+        settings: Settings,
+        fixed_size: bool,
+        display: Display,
+        camera: Option<Camera>,
+        threads: Option<usize>,
+    ) -> Result<Self, String> {
+        let scene = Arc::new(scene);
+        let viewport = UVec2::new(settings.width, settings.height);
+        let controller = controller_for(&scene, camera, settings.width as f32 / settings.height as f32);
+        let sent = JobKey { scene: Arc::clone(&scene), camera: controller.camera(), settings };
+        let job = Job { scene: Arc::clone(&scene), camera: sent.camera, settings };
+        let session = RenderSession::new_yielding(job, threads).map_err(|e| e.to_string())?;
+        let fly_speed = 0.25 * scene.radius().max(1e-3);
+        Ok(Self {
+            original: (scene.materials.clone(), scene.lights.clone()),
+            scene,
+            source,
+            session,
+            sent,
+            settings,
+            fixed_size,
+            viewport,
+            display,
+            camera: controller,
+            fly_speed,
+            preview: false,
+            paused: false,
+            selected: None,
+            error: None,
+            message: None,
+            screenshot_dir: ".".into(),
+            open_path: String::new(),
+            view_path: "view.toml".into(),
+            loading: None,
+            threads,
+            restarted: Instant::now(),
+            latencies: Vec::new(),
+            awaiting_first_image: true,
+            ids: None,
+        })
+    }
+
+    /// The settings actually rendered: the window's size (or the fixed one), reduced while previewing.
+    pub fn effective_settings(&self) -> Settings {
+        let mut s = self.settings;
+        if !self.fixed_size {
+            s.width = self.viewport.x.clamp(1, 16384);
+            s.height = self.viewport.y.clamp(1, 16384);
+        }
+        if self.preview {
+            s.width = s.width.div_ceil(PREVIEW_DIVISOR);
+            s.height = s.height.div_ceil(PREVIEW_DIVISOR);
+            s.target_spp = None;
+        }
+        s
+    }
+
+    /// Sends the current scene, camera and settings to the session if anything changed
+    /// (restarting accumulation), and applies pause. Returns whether it restarted.
+    pub fn sync(&mut self) -> bool {
+        self.session.set_paused(self.paused);
+        let want = JobKey {
+            scene: Arc::clone(&self.scene),
+            camera: self.camera.camera(),
+            settings: self.effective_settings(),
+        };
+        if want == self.sent {
+            return false;
+        }
+        let job = Job { scene: Arc::clone(&want.scene), camera: want.camera, settings: want.settings };
+        match self.session.set_job(job) {
+            Ok(_) => {
+                self.sent = want;
+                self.restarted = Instant::now();
+                self.awaiting_first_image = true;
+                true
+            }
+            Err(e) => {
+                self.error = Some(e.to_string());
+                false
+            }
+        }
+    }
+
+    /// The generation of the job being rendered.
+    pub fn generation(&self) -> u64 {
+        self.session.generation()
+    }
+
+    /// The latest image of the current job, if one pass has completed.
+    pub fn snapshot(&mut self) -> Option<Arc<Snapshot>> {
+        let snap = self.session.snapshot();
+        if snap.is_some() && self.awaiting_first_image {
+            self.awaiting_first_image = false;
+            self.latencies.push(self.restarted.elapsed());
+        }
+        snap
+    }
+
+    /// Waits up to `timeout` for an image newer than `seen`.
+    pub fn wait_for_update(&self, seen: Option<&Arc<Snapshot>>, timeout: Duration) -> Option<Arc<Snapshot>> {
+        self.session.wait_for_update(seen, timeout)
+    }
+
+    /// Starts loading a glTF file on a background thread; the current scene keeps rendering.
+    pub fn open(&mut self, path: PathBuf) {
+        let (tx, rx) = std::sync::mpsc::channel();
+        let building = Arc::new(AtomicBool::new(false));
+        let (p, b) = (path.clone(), Arc::clone(&building));
+        std::thread::spawn(move || {
+            let result = gltf::load(&p).map_err(|e| e.to_string()).map(|desc| {
+                b.store(true, Ordering::Relaxed);
+                Scene::build(desc)
+            });
+            let _ = tx.send(result);
+        });
+        self.error = None;
+        self.loading = Some(Loading { path, building, result: rx });
+    }
+
+    /// What is being loaded and its stage, for the progress display.
+    pub fn loading_status(&self) -> Option<String> {
+        self.loading.as_ref().map(|l| {
+            let stage = if l.building.load(Ordering::Relaxed) { "building the BVH" } else { "reading" };
+            format!("loading {} ({stage})", l.path.display())
+        })
+    }
+
+    /// Takes a finished load: a new scene replaces the old one, an error is shown and the
+    /// old scene stays. Returns true when a load finished.
+    pub fn poll_loading(&mut self) -> bool {
+        let Some(loading) = &self.loading else { return false };
+        let result = match loading.result.try_recv() {
+            Ok(r) => r,
+            Err(TryRecvError::Empty) => return false,
+            Err(TryRecvError::Disconnected) => Err(format!("loading {} stopped unexpectedly", loading.path.display())),
+        };
+        let path = loading.path.clone();
+        self.loading = None;
+        match result {
+            Ok(scene) => {
+                let scene = Arc::new(scene);
+                let aspect = self.aspect();
+                self.camera = controller_for(&scene, None, aspect);
+                self.fly_speed = 0.25 * scene.radius().max(1e-3);
+                self.original = (scene.materials.clone(), scene.lights.clone());
+                self.message = (!scene.warnings.is_empty()).then(|| scene.warnings.join("; "));
+                self.scene = scene;
+                self.source = Some(path);
+                self.selected = None;
+            }
+            Err(e) => self.error = Some(e),
+        }
+        true
+    }
+
+    /// Aspect ratio of the rendered image.
+    pub fn aspect(&self) -> f32 {
+        let s = self.effective_settings();
+        s.width as f32 / s.height as f32
+    }
+
+    /// Applies an edit to the materials and lights: the BVH is kept, accumulation restarts.
+    pub fn edit(&mut self, f: impl FnOnce(&mut Vec<Material>, &mut Vec<PunctualLight>)) {
+        let (mut materials, mut lights) = (self.scene.materials.clone(), self.scene.lights.clone());
+        f(&mut materials, &mut lights);
+        if materials != self.scene.materials || lights != self.scene.lights {
+            self.scene = Arc::new(self.scene.with_edits(materials, lights));
+        }
+    }
+
+    /// Restores the materials and lights as the file has them.
+    pub fn reset_edits(&mut self) {
+        let (m, l) = self.original.clone();
+        self.edit(|materials, lights| {
+            *materials = m;
+            *lights = l;
+        });
+    }
+
+    /// Whether materials or lights differ from the file.
+    pub fn edited(&self) -> bool {
+        self.scene.materials != self.original.0 || self.scene.lights != self.original.1
+    }
+
+    /// Puts the camera back to the file's camera `index`, or the default view.
+    pub fn reset_camera(&mut self, index: Option<usize>) {
+        let aspect = self.aspect();
+        let camera = index.and_then(|i| self.scene.cameras.get(i)).map(|(_, c)| *c);
+        self.camera = controller_for(&self.scene, camera, aspect);
+    }
+
+    /// The material seen through image position `uv` ([0, 1]^2, top-left origin).
+    pub fn pick(&self, uv: Vec2) -> Option<u32> {
+        let s = self.effective_settings();
+        let ray = self.camera.camera().rays(s.width, s.height).ray(uv * Vec2::new(s.width as f32, s.height as f32));
+        let hit = self.scene.geometry.intersect(&ray)?;
+        Some(self.scene.geometry.attrs(hit.tri).material)
+    }
+
+    /// Tonemaps a snapshot to RGBA8 for display, tinting the selected material's pixels.
+    pub fn display_rgba(&mut self, snap: &Snapshot) -> Vec<[u8; 4]> {
+        if self.selected.is_some() {
+            self.update_material_ids(snap);
+        }
+        let mask = self.selected.zip(self.ids.as_ref().map(|b| &b.ids));
+        snap.mean
+            .iter()
+            .enumerate()
+            .map(|(i, &p)| {
+                let [r, g, b] = self.display.to_srgb8(p);
+                match &mask {
+                    Some((m, ids)) if ids.get(i) == Some(m) => {
+                        let tint = |c: u8, t: f32| (c as f32 * 0.6 + t * 0.4) as u8;
+                        [tint(r, 255.0), tint(g, 170.0), tint(b, 40.0), 255]
+                    }
+                    _ => [r, g, b, 255],
+                }
+            })
+            .collect()
+    }
+
+    /// Material ids of the snapshot's pixels (primary rays through pixel centres), cached per view.
+    fn update_material_ids(&mut self, snap: &Snapshot) {
+        let key = (UVec2::new(snap.width, snap.height), self.sent.camera, Arc::as_ptr(&self.scene) as usize);
+        if self.ids.as_ref().is_none_or(|b| b.key != key) {
+            let rays = key.1.rays(snap.width, snap.height);
+            let scene = &self.scene;
+            let ids = (0..snap.width * snap.height)
+                .into_par_iter()
+                .map(|i| {
+                    let film = Vec2::new((i % snap.width) as f32 + 0.5, (i / snap.width) as f32 + 0.5);
+                    scene.geometry.intersect(&rays.ray(film)).map_or(u32::MAX, |h| scene.geometry.attrs(h.tri).material)
+                })
+                .collect();
+            self.ids = Some(IdBuffer { key, ids });
+        }
+    }
+
+    /// Saves the latest image as `<scene>-<spp>spp.png` (tonemapped) and `.exr` (linear)
+    /// in the screenshot folder; returns the PNG's path.
+    pub fn screenshot(&mut self) -> Result<PathBuf, String> {
+        let snap = self.snapshot().ok_or("nothing rendered yet")?;
+        let name = format!("{}-{}spp.png", self.scene.name, snap.spp);
+        let path = Path::new(&self.screenshot_dir).join(name);
+        self.save_images(&snap, &path)?;
+        Ok(path)
+    }
+
+    /// Writes `png` (tonemapped) and the same path with .exr (linear) from `snap`.
+    pub fn save_images(&self, snap: &Snapshot, png: &Path) -> Result<(), String> {
+        write_image(png, snap.width, snap.height, &snap.mean, &self.display).map_err(|e| e.to_string())?;
+        write_image(&png.with_extension("exr"), snap.width, snap.height, &snap.mean, &self.display)
+            .map_err(|e| e.to_string())
+    }
+
+    /// Saves camera, settings and display to `view_path`.
+    pub fn save_view(&self) -> Result<(), String> {
+        let view =
+            ViewFile { camera: Some(self.camera.camera()), settings: self.effective_settings(), display: self.display };
+        view.save(Path::new(&self.view_path))
+    }
+
+    /// Loads camera, settings and display from `view_path` (the resolution keeps following
+    /// the window unless it is fixed).
+    pub fn load_view(&mut self) -> Result<(), String> {
+        let view = ViewFile::load(Path::new(&self.view_path))?;
+        let aspect = self.aspect();
+        if let Some(cam) = view.camera {
+            self.camera = controller_for(&self.scene, Some(cam), aspect);
+        }
+        self.settings = view.settings;
+        self.display = view.display;
+        Ok(())
+    }
+
+    /// Worker thread count the session was started with.
+    pub fn threads(&self) -> Option<usize> {
+        self.threads
+    }
+}
+
+/// A controller for `camera` (or the scene's default view), orbiting the scene's centre depth.
+fn controller_for(scene: &Scene, camera: Option<Camera>, aspect: f32) -> CameraController {
+    let camera = camera.unwrap_or_else(|| scene.default_camera(aspect));
+    let centre = 0.5 * (scene.bounds.0 + scene.bounds.1);
+    let forward = camera.rotation * -Vec3::Z;
+    let depth = (centre - camera.position).dot(forward);
+    let distance = if depth > 0.0 { depth } else { scene.radius().max(1e-3) };
+    CameraController::from_camera(&camera, distance)
+}

@@ -1,0 +1,352 @@
+//! The egui panels: status and render controls on the left, the selection's material and
+//! the lights on the right, the converging image in the middle with camera controls.
+
+use super::state::ViewerState;
+use crate::film::tonemap::Tonemap;
+use crate::integrator::{LightSampling, PixelSampling};
+use crate::render::Snapshot;
+use egui::{Color32, Key, PointerButton, Rect, Sense, Ui, pos2};
+use glam::{UVec2, Vec2, Vec3};
+use std::time::{Duration, Instant};
+
+/// How long after the last camera input the full-resolution render resumes.
+const PREVIEW_HOLD: Duration = Duration::from_millis(200);
+
+/// UI-only state that does not affect the image.
+pub struct UiState {
+    /// The displayed image.
+    pub texture: Option<egui::TextureHandle>,
+    /// The snapshot shown.
+    pub shown: Option<std::sync::Arc<Snapshot>>,
+    /// Smoothed UI frame time in milliseconds.
+    pub frame_ms: f32,
+    last_input: Option<Instant>,
+}
+
+impl UiState {
+    /// Empty UI state.
+    pub fn new() -> Self {
+        Self { texture: None, shown: None, frame_ms: 0.0, last_input: None }
+    }
+}
+
+/// Draws one frame of UI and applies what the user did to `state`.
+pub fn draw(ui: &mut Ui, state: &mut ViewerState, ui_state: &mut UiState) {
+    egui::Panel::left("controls").resizable(true).default_size(300.0).show(ui, |ui| {
+        egui::ScrollArea::vertical().show(ui, |ui| controls(ui, state, ui_state));
+    });
+    if state.selected.is_some() || !state.scene.lights.is_empty() {
+        egui::Panel::right("editors").resizable(true).default_size(260.0).show(ui, |ui| {
+            egui::ScrollArea::vertical().show(ui, |ui| editors(ui, state));
+        });
+    }
+    egui::CentralPanel::no_frame().show(ui, |ui| image(ui, state, ui_state));
+    if ui.input(|i| i.key_pressed(Key::F12)) {
+        screenshot(state);
+    }
+}
+
+fn screenshot(state: &mut ViewerState) {
+    match state.screenshot() {
+        Ok(p) => state.message = Some(format!("saved {} and .exr", p.display())),
+        Err(e) => state.error = Some(e),
+    }
+}
+
+fn status(ui: &mut Ui, state: &ViewerState, ui_state: &UiState) {
+    match &ui_state.shown {
+        Some(s) => {
+            ui.label(format!("{} spp, {:.1} s, {}x{}", s.spp, s.elapsed.as_secs_f64(), s.width, s.height));
+            ui.label(format!(
+                "{:.2} Msamples/s, {:.2} Mrays/s",
+                s.samples_per_second() / 1e6,
+                s.rays_per_second() / 1e6
+            ));
+            let noise = s.relative_error().map_or("-".into(), |e| format!("{:.2}%", 100.0 * e));
+            ui.label(format!("noise (rel. std. error) {noise}, NaN/Inf dropped {}", s.rejected));
+        }
+        None => {
+            ui.label("first pass...");
+        }
+    }
+    let latency = state.latencies.last().map_or("-".into(), |d| format!("{:.0} ms", d.as_secs_f64() * 1e3));
+    ui.label(format!("UI frame {:.1} ms, restart to image {latency}", ui_state.frame_ms));
+}
+
+fn controls(ui: &mut Ui, state: &mut ViewerState, ui_state: &mut UiState) {
+    ui.heading(format!("Lucent: {}", state.scene.name));
+    status(ui, state, ui_state);
+    ui.horizontal(|ui| {
+        let label = if state.paused { "Resume" } else { "Pause" };
+        if ui.button(label).clicked() {
+            state.paused = !state.paused;
+        }
+        if ui.button("Screenshot (F12)").clicked() {
+            screenshot(state);
+        }
+    });
+    if let Some(e) = state.error.clone() {
+        ui.horizontal_wrapped(|ui| {
+            ui.colored_label(Color32::from_rgb(255, 90, 90), e);
+            if ui.small_button("dismiss").clicked() {
+                state.error = None;
+            }
+        });
+    }
+    if let Some(m) = state.message.clone() {
+        ui.horizontal_wrapped(|ui| {
+            ui.label(m);
+            if ui.small_button("ok").clicked() {
+                state.message = None;
+            }
+        });
+    }
+    ui.separator();
+    egui::CollapsingHeader::new("Estimator").default_open(true).show(ui, |ui| estimator(ui, state));
+    egui::CollapsingHeader::new("Display").default_open(true).show(ui, |ui| {
+        ui.add(egui::Slider::new(&mut state.display.exposure, -10.0..=10.0).text("exposure (EV)"));
+        egui::ComboBox::from_label("tone curve").selected_text(format!("{:?}", state.display.tonemap)).show_ui(
+            ui,
+            |ui| {
+                for t in [Tonemap::Linear, Tonemap::Aces, Tonemap::PbrNeutral] {
+                    ui.selectable_value(&mut state.display.tonemap, t, format!("{t:?}"));
+                }
+            },
+        );
+        ui.checkbox(&mut state.fixed_size, "fixed resolution");
+        if state.fixed_size {
+            ui.horizontal(|ui| {
+                ui.add(egui::DragValue::new(&mut state.settings.width).range(1..=16384));
+                ui.label("x");
+                ui.add(egui::DragValue::new(&mut state.settings.height).range(1..=16384));
+            });
+        }
+    });
+    egui::CollapsingHeader::new("Camera").default_open(true).show(ui, |ui| camera(ui, state));
+    egui::CollapsingHeader::new("Files").default_open(true).show(ui, |ui| files(ui, state));
+}
+
+fn estimator(ui: &mut Ui, state: &mut ViewerState) {
+    let s = &mut state.settings;
+    ui.checkbox(&mut s.importance_sampling, "importance sampling");
+    egui::ComboBox::from_label("light sampling").selected_text(format!("{:?}", s.light_sampling)).show_ui(ui, |ui| {
+        ui.selectable_value(&mut s.light_sampling, LightSampling::Off, "Off");
+        ui.selectable_value(&mut s.light_sampling, LightSampling::Explicit, "Explicit");
+        ui.selectable_value(&mut s.light_sampling, LightSampling::Mis, "Mis");
+    });
+    egui::ComboBox::from_label("integrator").selected_text("path tracing").show_ui(ui, |ui| {
+        let _ = ui.selectable_label(true, "path tracing");
+    });
+    ui.add(egui::Slider::new(&mut s.max_depth, 0..=64).text("max depth"));
+    ui.add(egui::Slider::new(&mut s.rr_depth, 0..=64).text("roulette from"));
+    egui::ComboBox::from_label("pixel sampling").selected_text(format!("{:?}", s.pixel_sampling)).show_ui(ui, |ui| {
+        for p in [PixelSampling::Random, PixelSampling::Stratified, PixelSampling::Grid] {
+            ui.selectable_value(&mut s.pixel_sampling, p, format!("{p:?}"));
+        }
+    });
+    if s.pixel_sampling != PixelSampling::Random {
+        ui.add(egui::Slider::new(&mut s.strata, 1..=16).text("strata per axis"));
+    }
+    let mut clamp = s.firefly_clamp.is_some();
+    ui.horizontal(|ui| {
+        ui.checkbox(&mut clamp, "firefly clamp (biased)");
+        let mut c = s.firefly_clamp.unwrap_or(10.0);
+        if clamp {
+            ui.add(egui::DragValue::new(&mut c).range(1e-3..=1e6).speed(0.1));
+        }
+        s.firefly_clamp = clamp.then_some(c);
+    });
+    let mut target = s.target_spp.is_some();
+    ui.horizontal(|ui| {
+        ui.checkbox(&mut target, "stop at spp");
+        let mut t = s.target_spp.unwrap_or(256);
+        if target {
+            ui.add(egui::DragValue::new(&mut t).range(1..=1_000_000));
+        }
+        s.target_spp = target.then_some(t);
+    });
+    ui.horizontal(|ui| {
+        ui.label("seed");
+        ui.add(egui::DragValue::new(&mut s.seed));
+    });
+}
+
+fn camera(ui: &mut Ui, state: &mut ViewerState) {
+    let mut fov = state.camera.yfov.to_degrees();
+    if ui.add(egui::Slider::new(&mut fov, 5.0..=150.0).text("vertical fov")).changed() {
+        state.camera.yfov = fov.to_radians();
+    }
+    let radius = state.scene.radius().max(1e-3);
+    ui.add(egui::Slider::new(&mut state.fly_speed, radius * 1e-3..=radius * 4.0).logarithmic(true).text("fly speed"));
+    ui.label("drag: orbit, shift/middle drag: pan, wheel: dolly, right drag: look, WASD/QE: fly, click: select");
+    ui.horizontal(|ui| {
+        if ui.button("Reset").clicked() {
+            state.reset_camera(if state.scene.cameras.is_empty() { None } else { Some(0) });
+        }
+        if ui.button("Frame scene").clicked() {
+            state.reset_camera(None);
+        }
+    });
+    let names: Vec<String> = state.scene.cameras.iter().map(|(n, _)| n.clone()).collect();
+    if !names.is_empty() {
+        egui::ComboBox::from_label("file cameras").selected_text("choose").show_ui(ui, |ui| {
+            for (i, n) in names.iter().enumerate() {
+                if ui.selectable_label(false, n).clicked() {
+                    state.reset_camera(Some(i));
+                }
+            }
+        });
+    }
+}
+
+fn files(ui: &mut Ui, state: &mut ViewerState) {
+    ui.label("open a .gltf/.glb (or drop it on the window)");
+    ui.horizontal(|ui| {
+        ui.text_edit_singleline(&mut state.open_path);
+        if ui.button("Open").clicked() && !state.open_path.trim().is_empty() {
+            let path = state.open_path.trim().into();
+            state.open(path);
+        }
+    });
+    if let Some(status) = state.loading_status() {
+        ui.horizontal(|ui| {
+            ui.spinner();
+            ui.label(status);
+        });
+    }
+    ui.label("screenshot folder");
+    ui.text_edit_singleline(&mut state.screenshot_dir);
+    ui.label("view file (camera + settings)");
+    ui.horizontal(|ui| {
+        ui.text_edit_singleline(&mut state.view_path);
+        if ui.button("Save").clicked() {
+            match state.save_view() {
+                Ok(()) => state.message = Some(format!("saved {}", state.view_path)),
+                Err(e) => state.error = Some(e),
+            }
+        }
+        if ui.button("Load").clicked()
+            && let Err(e) = state.load_view()
+        {
+            state.error = Some(e);
+        }
+    });
+}
+
+/// Colour and magnitude of an RGB quantity, edited separately; returns the new value only
+/// if a widget changed (so values that do not round-trip exactly never trigger a restart).
+fn colour_and_amount(ui: &mut Ui, value: Vec3, label: &str, range: std::ops::RangeInclusive<f32>) -> Option<Vec3> {
+    let peak = value.max_element();
+    let mut colour = if peak > 0.0 { (value / peak).to_array() } else { [1.0; 3] };
+    let mut amount = peak;
+    let mut changed = false;
+    ui.horizontal(|ui| {
+        changed |= ui.color_edit_button_rgb(&mut colour).changed();
+        changed |= ui.add(egui::Slider::new(&mut amount, range).logarithmic(true).text(label)).changed();
+    });
+    changed.then(|| Vec3::from(colour) * amount)
+}
+
+fn editors(ui: &mut Ui, state: &mut ViewerState) {
+    if let Some(index) = state.selected {
+        let mut m = state.scene.materials[index as usize].clone();
+        ui.heading(format!("Material: {}", m.name));
+        let mut base = m.base_color.to_array();
+        ui.horizontal(|ui| {
+            ui.color_edit_button_rgb(&mut base);
+            ui.label("base colour");
+        });
+        m.base_color = Vec3::from(base);
+        ui.add(egui::Slider::new(&mut m.metallic, 0.0..=1.0).text("metallic"));
+        ui.add(egui::Slider::new(&mut m.roughness, 0.0..=1.0).text("roughness"));
+        ui.add(egui::Slider::new(&mut m.specular, 0.0..=1.0).text("specular"));
+        ui.add(egui::Slider::new(&mut m.ior, 1.0..=3.0).text("IOR"));
+        if let Some(e) = colour_and_amount(ui, m.emissive, "emission", 0.0..=1000.0) {
+            m.emissive = e;
+        }
+        state.edit(|materials, _| materials[index as usize] = m);
+        if ui.button("Deselect").clicked() {
+            state.selected = None;
+        }
+        ui.separator();
+    }
+    for i in 0..state.scene.lights.len() {
+        let light = &state.scene.lights[i];
+        ui.label(format!("Light: {} ({:?})", light.name, light.kind));
+        if let Some(intensity) = colour_and_amount(ui, light.intensity, "intensity", 0.0..=1e6) {
+            state.edit(|_, lights| lights[i].intensity = intensity);
+        }
+    }
+    if state.edited() && ui.button("Reset to file").clicked() {
+        state.reset_edits();
+    }
+}
+
+fn image(ui: &mut Ui, state: &mut ViewerState, ui_state: &mut UiState) {
+    let (rect, response) = ui.allocate_exact_size(ui.available_size(), Sense::click_and_drag());
+    let ppp = ui.ctx().pixels_per_point();
+    state.viewport =
+        UVec2::new((rect.width() * ppp).round().max(1.0) as u32, (rect.height() * ppp).round().max(1.0) as u32);
+    let aspect = state.aspect();
+    let size = if rect.width() / rect.height() > aspect {
+        egui::vec2(rect.height() * aspect, rect.height())
+    } else {
+        egui::vec2(rect.width(), rect.width() / aspect)
+    };
+    let shown = Rect::from_center_size(rect.center(), size);
+    if let Some(tex) = &ui_state.texture {
+        let uv = Rect::from_min_max(pos2(0.0, 0.0), pos2(1.0, 1.0));
+        ui.painter().image(tex.id(), shown, uv, Color32::WHITE);
+    }
+    let height = shown.height();
+    let delta = response.drag_delta();
+    let d = Vec2::new(delta.x, delta.y);
+    let shift = ui.input(|i| i.modifiers.shift);
+    let mut moved = false;
+    if response.dragged_by(PointerButton::Primary) && d != Vec2::ZERO {
+        if shift {
+            state.camera.pan(d, height)
+        } else {
+            state.camera.orbit(d, height)
+        }
+        moved = true;
+    } else if response.dragged_by(PointerButton::Middle) && d != Vec2::ZERO {
+        state.camera.pan(d, height);
+        moved = true;
+    } else if response.dragged_by(PointerButton::Secondary) && d != Vec2::ZERO {
+        state.camera.look(d, height);
+        moved = true;
+    }
+    if response.hovered() {
+        let scroll = ui.input(|i| i.smooth_scroll_delta.y);
+        if scroll != 0.0 {
+            state.camera.dolly(scroll / 50.0);
+            moved = true;
+        }
+    }
+    if !ui.ctx().egui_wants_keyboard_input() {
+        let (dt, keys) = ui.input(|i| {
+            let k = |key| if i.key_down(key) { 1.0 } else { 0.0 };
+            (i.stable_dt.min(0.1), Vec3::new(k(Key::D) - k(Key::A), k(Key::E) - k(Key::Q), k(Key::W) - k(Key::S)))
+        });
+        if keys != Vec3::ZERO {
+            state.camera.fly(keys, state.fly_speed * dt);
+            moved = true;
+        }
+    }
+    if response.clicked()
+        && let Some(p) = response.interact_pointer_pos().filter(|p| shown.contains(*p))
+    {
+        let uv = (p - shown.min) / shown.size();
+        state.selected = state.pick(Vec2::new(uv.x, uv.y));
+    }
+    let now = Instant::now();
+    if moved {
+        ui_state.last_input = Some(now);
+    }
+    let previewing = ui_state.last_input.is_some_and(|t| now - t < PREVIEW_HOLD);
+    state.preview = previewing;
+    if previewing {
+        ui.ctx().request_repaint_after(Duration::from_millis(16));
+    }
+}

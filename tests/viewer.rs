@@ -1,0 +1,166 @@
+//! The viewer: its state logic headless (loading, restarts, edits, picking, views), and
+//! end to end in a real window under Xvfb, whose screenshot must equal the headless render.
+
+mod common;
+
+use lucent::film::tonemap::Display;
+use lucent::integrator::{LightSampling, Settings};
+use lucent::loader::builtin;
+use lucent::scene::Scene;
+use lucent::viewer::state::ViewerState;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+fn viewer() -> ViewerState {
+    let settings = Settings { width: 48, height: 48, ..Settings::default() };
+    ViewerState::new(Scene::build(builtin::cornell_box()), None, settings, true, Display::default(), None, Some(1))
+        .unwrap()
+}
+
+fn wait_for_load(state: &mut ViewerState) {
+    let start = Instant::now();
+    while !state.poll_loading() {
+        assert!(start.elapsed() < Duration::from_secs(60), "loading never finished");
+        std::thread::sleep(Duration::from_millis(10));
+    }
+}
+
+fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("lucent-viewer-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+#[test]
+fn a_malformed_dropped_file_reports_its_error_and_the_old_scene_keeps_rendering() {
+    let mut state = viewer();
+    let first = state.wait_for_update(None, Duration::from_secs(30)).expect("renders");
+    let generation = state.generation();
+    let bad = temp_dir("bad").join("broken.glb");
+    std::fs::write(&bad, b"glTF\x02\x00\x00\x00not really").unwrap();
+    state.open(bad.clone());
+    assert!(state.loading_status().is_some());
+    wait_for_load(&mut state);
+    let error = state.error.clone().expect("the error is shown");
+    assert!(error.contains("broken.glb") && !error.contains('\n'), "{error}");
+    assert_eq!(state.scene.name, "cornell-box");
+    assert!(!state.sync(), "nothing to restart");
+    assert_eq!(state.generation(), generation);
+    let later = state.wait_for_update(Some(&first), Duration::from_secs(30)).expect("still rendering");
+    assert!(later.spp > first.spp);
+}
+
+#[test]
+fn a_good_file_replaces_the_scene() {
+    let mut state = viewer();
+    state.open(common::asset("Box/glTF-Binary/Box.glb"));
+    wait_for_load(&mut state);
+    assert!(state.error.is_none());
+    assert_eq!(state.scene.name, "Box");
+    assert!(state.sync(), "the new scene restarts accumulation");
+}
+
+#[test]
+fn every_change_bumps_the_generation_and_edits_keep_the_bvh() {
+    let mut state = viewer();
+    let g0 = state.generation();
+    state.settings.light_sampling = LightSampling::Explicit;
+    assert!(state.sync());
+    let g1 = state.generation();
+    assert!(g1 > g0);
+    state.camera.orbit(glam::Vec2::new(10.0, 0.0), 48.0);
+    assert!(state.sync() && state.generation() > g1);
+    let geometry = Arc::clone(&state.scene.geometry);
+    state.edit(|materials, _| materials[0].base_color = glam::Vec3::new(0.2, 0.4, 0.6));
+    assert!(state.edited() && Arc::ptr_eq(&geometry, &state.scene.geometry), "no BVH rebuild");
+    assert!(state.sync());
+    state.reset_edits();
+    assert!(!state.edited());
+    state.edit(|_, _| {});
+    state.sync();
+    assert!(!state.sync(), "an edit that changes nothing does not restart");
+    let done = state.wait_for_update(None, Duration::from_secs(30)).unwrap();
+    assert_eq!(done.generation, state.generation(), "only the current job's image is handed out");
+}
+
+#[test]
+fn picking_finds_the_material_under_the_cursor_and_preview_lowers_the_resolution() {
+    let mut state = viewer();
+    let name = |m: Option<u32>| m.map(|i| state.scene.materials[i as usize].name.clone());
+    assert_eq!(name(state.pick(glam::Vec2::new(0.5, 0.14))).as_deref(), Some("light"));
+    assert_eq!(name(state.pick(glam::Vec2::new(0.05, 0.5))).as_deref(), Some("red"));
+    assert_eq!(name(state.pick(glam::Vec2::new(0.95, 0.5))).as_deref(), Some("green"));
+    state.preview = true;
+    let s = state.effective_settings();
+    assert!(s.width < 48 && s.height < 48 && s.target_spp.is_none());
+}
+
+#[test]
+fn views_save_and_load() {
+    let mut state = viewer();
+    state.view_path = temp_dir("view").join("v.toml").to_string_lossy().into_owned();
+    state.camera.dolly(2.0);
+    state.settings.max_depth = 11;
+    state.save_view().unwrap();
+    let saved = state.camera;
+    let mut other = viewer();
+    other.view_path = state.view_path.clone();
+    other.load_view().unwrap();
+    assert!((other.camera.position() - saved.position()).length() < 1e-4);
+    assert_eq!(other.settings.max_depth, 11);
+}
+
+fn xvfb_run() -> Option<PathBuf> {
+    std::env::var_os("PATH")?.to_str()?.split(':').map(|d| Path::new(d).join("xvfb-run")).find(|p| p.exists())
+}
+
+#[test]
+fn the_real_window_saves_the_same_image_as_the_headless_renderer() {
+    let Some(xvfb) = xvfb_run() else {
+        assert!(
+            std::env::var_os("LUCENT_REQUIRE_XVFB").is_none(),
+            "LUCENT_REQUIRE_XVFB is set but xvfb-run is missing: the viewer test must run"
+        );
+        eprintln!("skipping the end-to-end viewer test: xvfb-run is not installed");
+        return;
+    };
+    let dir = temp_dir("e2e");
+    let runtime = dir.join("xdg");
+    std::fs::create_dir_all(&runtime).unwrap();
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        std::fs::set_permissions(&runtime, std::fs::Permissions::from_mode(0o700)).unwrap();
+    }
+    let shot = dir.join("shot.png");
+    let args = ["--spp", "8", "--width", "64", "--height", "48", "--seed", "3"];
+    let out = Command::new(xvfb)
+        .args(["-a", "-s", "-screen 0 1280x800x24", env!("CARGO_BIN_EXE_lucent"), "view"])
+        .args(args)
+        .arg("--screenshot")
+        .arg(&shot)
+        .env_remove("WAYLAND_DISPLAY")
+        .env("XDG_RUNTIME_DIR", &runtime)
+        .output()
+        .unwrap();
+    let log = format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+    assert!(out.status.success(), "viewer failed: {log}");
+    assert!(log.contains("presenting with"), "a real surface was used: {log}");
+    let reference = dir.join("ref.exr");
+    let status = Command::new(env!("CARGO_BIN_EXE_lucent"))
+        .arg("render")
+        .args(args)
+        .arg("--out")
+        .arg(&reference)
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let a = image::open(shot.with_extension("exr")).unwrap().into_rgb32f();
+    let b = image::open(&reference).unwrap().into_rgb32f();
+    assert_eq!(a.dimensions(), (64, 48));
+    assert!(a.as_raw() == b.as_raw(), "the viewer's image differs from the headless render");
+    let png = image::open(&shot).unwrap();
+    assert_eq!((png.width(), png.height()), (64, 48));
+}
