@@ -8,11 +8,11 @@ mod ui;
 
 use crate::cli::args::ViewArgs;
 use crate::cli::render::load_scene;
-use crate::film::output::Format;
-use crate::film::output::check_writable;
+use crate::film::output::{Format, check_writable};
+use crate::render::Snapshot;
 use gpu::Gpu;
 use state::ViewerState;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 use ui::UiState;
@@ -23,6 +23,11 @@ use winit::window::{Window, WindowId};
 
 /// How often the event loop looks for a new image when nothing else happens.
 const POLL: Duration = Duration::from_millis(33);
+
+/// Shortest interval between two images of the same job on screen: several updates a
+/// second without spending the render cores on redraws (a new job's first image and the
+/// final one are shown at once).
+const REFRESH: Duration = Duration::from_millis(250);
 
 /// Opens the viewer; with `--screenshot`, renders to `--spp`, saves and exits.
 pub fn run(args: &ViewArgs) -> Result<(), String> {
@@ -46,6 +51,9 @@ pub fn run(args: &ViewArgs) -> Result<(), String> {
     let event_loop = EventLoop::new().map_err(|e| format!("cannot open a window: {e}"))?;
     let mut app = App::new(state, args.screenshot.clone());
     event_loop.run_app(&mut app).map_err(|e| format!("the window's event loop failed: {e}"))?;
+    if app.screenshot.is_none() {
+        eprintln!("{}", app.summary());
+    }
     app.result
 }
 
@@ -56,7 +64,12 @@ struct App {
     egui: egui::Context,
     window: Option<(Arc<Window>, Gpu, egui_winit::State)>,
     screenshot: Option<PathBuf>,
+    /// When egui asked to be drawn again.
     repaint_at: Option<Instant>,
+    /// Whether something asked for a frame since the last one.
+    redraw_wanted: bool,
+    /// When the image on screen was last replaced.
+    shown_at: Instant,
     frames: u32,
     frame_time: Duration,
     result: Result<(), String>,
@@ -71,10 +84,29 @@ impl App {
             window: None,
             screenshot,
             repaint_at: None,
+            redraw_wanted: true,
+            shown_at: Instant::now(),
             frames: 0,
             frame_time: Duration::ZERO,
             result: Ok(()),
         }
+    }
+
+    /// UI frame time and restart latencies over the whole session, one line.
+    fn summary(&self) -> String {
+        let median = |preview: bool| {
+            let mut ms: Vec<f64> =
+                self.state.latencies.iter().filter(|l| l.1 == preview).map(|l| l.0.as_secs_f64() * 1e3).collect();
+            ms.sort_by(f64::total_cmp);
+            ms.get(ms.len() / 2).map_or("-".into(), |m| format!("median {m:.0} ms over {}", ms.len()))
+        };
+        format!(
+            "viewer: {} UI frames, mean {:.1} ms; restart to first image: preview {}, full resolution {}",
+            self.frames,
+            self.frame_time.as_secs_f64() * 1e3 / self.frames.max(1) as f64,
+            median(true),
+            median(false)
+        )
     }
 
     fn fail(&mut self, event_loop: &ActiveEventLoop, error: String) {
@@ -82,23 +114,32 @@ impl App {
         event_loop.exit();
     }
 
-    /// Shows the newest snapshot, if newer than the one on screen.
-    fn update_image(&mut self) -> bool {
-        let Some(snap) = self.state.snapshot() else { return false };
-        if self.ui.shown.as_ref().is_some_and(|s| Arc::ptr_eq(s, &snap)) {
-            return false;
-        }
+    /// The newest image, if it should replace the one on screen now.
+    fn image_due(&mut self) -> Option<Arc<Snapshot>> {
+        let snap = self.state.snapshot()?;
+        let due = match &self.ui.shown {
+            None => true,
+            Some(s) if Arc::ptr_eq(s, &snap) => false,
+            Some(s) => s.generation != snap.generation || snap.done || self.shown_at.elapsed() >= REFRESH,
+        };
+        due.then_some(snap)
+    }
+
+    /// Shows the newest image, if it is due.
+    fn update_image(&mut self) {
+        let Some(snap) = self.image_due() else { return };
+        self.shown_at = Instant::now();
         let rgba = self.state.display_rgba(&snap);
-        let image =
-            egui::ColorImage::from_rgba_unmultiplied([snap.width as usize, snap.height as usize], rgba.as_flattened());
+        let size = [snap.width as usize, snap.height as usize];
+        let image = egui::ColorImage::from_rgba_unmultiplied(size, rgba.as_flattened());
         match &mut self.ui.texture {
             Some(t) => t.set(image, egui::TextureOptions::LINEAR),
             None => self.ui.texture = Some(self.egui.load_texture("render", image, egui::TextureOptions::LINEAR)),
         }
         self.ui.shown = Some(snap);
-        true
     }
 
+    /// Runs the UI, paints the window and applies what the user changed.
     fn frame(&mut self, event_loop: &ActiveEventLoop) {
         let start = Instant::now();
         self.state.poll_loading();
@@ -118,24 +159,23 @@ impl App {
         self.frame_time += took;
         let ms = took.as_secs_f32() * 1e3;
         self.ui.frame_ms = if self.frames == 1 { ms } else { 0.9 * self.ui.frame_ms + 0.1 * ms };
-        if let Some(path) = self.screenshot.clone() {
+        if self.ui.quit {
+            event_loop.exit();
+        } else if let Some(path) = self.screenshot.clone() {
             self.finish_screenshot(event_loop, &path);
         }
     }
 
     /// In --screenshot mode: once the target is reached and shown, save and exit.
-    fn finish_screenshot(&mut self, event_loop: &ActiveEventLoop, path: &std::path::Path) {
+    fn finish_screenshot(&mut self, event_loop: &ActiveEventLoop, path: &Path) {
         let Some(snap) = self.ui.shown.clone() else { return };
         if !snap.done || snap.generation != self.state.generation() {
             return;
         }
         match self.state.save_images(&snap, path) {
             Ok(()) => {
-                let mean_frame = self.frame_time.as_secs_f64() * 1e3 / self.frames.max(1) as f64;
-                let latency = self.state.latencies.first().map_or(0.0, |d| d.as_secs_f64() * 1e3);
                 println!(
-                    "{}: {} spp at {}x{} in {:.2} s: {:.2} Msamples/s, {:.2} Mrays/s, {} NaN/Inf dropped; \
-                     {} UI frames, mean {:.1} ms; first image after {:.0} ms; wrote {}",
+                    "{}: {} spp at {}x{} in {:.2} s: {:.2} Msamples/s, {:.2} Mrays/s, {} NaN/Inf dropped; {}; wrote {}",
                     self.state.scene.name,
                     snap.spp,
                     snap.width,
@@ -144,9 +184,7 @@ impl App {
                     snap.samples_per_second() / 1e6,
                     snap.rays_per_second() / 1e6,
                     snap.rejected,
-                    self.frames,
-                    mean_frame,
-                    latency,
+                    self.summary(),
                     path.display()
                 );
                 event_loop.exit();
@@ -184,39 +222,42 @@ impl ApplicationHandler for App {
             window.theme(),
             Some(gpu.max_texture_side()),
         );
-        window.request_redraw();
         self.window = Some((window, gpu, egui_state));
+        self.redraw_wanted = true;
     }
 
     fn window_event(&mut self, event_loop: &ActiveEventLoop, _id: WindowId, event: WindowEvent) {
         let Some((window, gpu, egui_state)) = &mut self.window else { return };
         let response = egui_state.on_window_event(window, &event);
-        match event {
-            WindowEvent::CloseRequested => event_loop.exit(),
+        self.redraw_wanted |= match event {
+            WindowEvent::CloseRequested => {
+                event_loop.exit();
+                false
+            }
             WindowEvent::Resized(size) => {
                 gpu.resize(size.width, size.height);
-                window.request_redraw();
+                true
             }
             WindowEvent::DroppedFile(path) => {
                 self.state.open(path);
-                window.request_redraw();
+                true
             }
-            WindowEvent::RedrawRequested => self.frame(event_loop),
-            _ => {
-                if response.repaint {
-                    window.request_redraw();
-                }
-            }
-        }
+            // Under X11 each present can come back as an expose, and so as a redraw request;
+            // frames are drawn from `about_to_wait` when something asked for one instead, or
+            // the UI would redraw in a loop and take the cores from the render workers.
+            WindowEvent::RedrawRequested => false,
+            _ => response.repaint,
+        };
     }
 
     fn about_to_wait(&mut self, event_loop: &ActiveEventLoop) {
-        let Some((window, _, _)) = &self.window else { return };
-        let newer =
-            self.state.snapshot().is_some_and(|s| self.ui.shown.as_ref().is_none_or(|shown| !Arc::ptr_eq(shown, &s)));
+        if self.window.is_none() {
+            return;
+        }
+        let newer = self.image_due().is_some();
         let due = self.repaint_at.is_some_and(|t| t <= Instant::now());
-        if newer || due || self.state.loading_status().is_some() {
-            window.request_redraw();
+        if std::mem::take(&mut self.redraw_wanted) || newer || due || self.state.loading_status().is_some() {
+            self.frame(event_loop);
         }
         let next = Instant::now() + POLL;
         let wake = self.repaint_at.map_or(next, |t| t.min(next));

@@ -87,8 +87,8 @@ pub struct ViewerState {
     loading: Option<Loading>,
     threads: Option<usize>,
     restarted: Instant,
-    /// Times from a restart to the first image of the new job.
-    pub latencies: Vec<Duration>,
+    /// Times from a restart to the first image of the new job, and whether it was a preview.
+    pub latencies: Vec<(Duration, bool)>,
     awaiting_first_image: bool,
     ids: Option<IdBuffer>,
 }
@@ -140,13 +140,19 @@ impl ViewerState {
         })
     }
 
-    /// The settings actually rendered: the window's size (or the fixed one), reduced while previewing.
-    pub fn effective_settings(&self) -> Settings {
+    /// The settings at full resolution: the window's size, or the fixed one.
+    fn effective_settings_full(&self) -> Settings {
         let mut s = self.settings;
         if !self.fixed_size {
             s.width = self.viewport.x.clamp(1, 16384);
             s.height = self.viewport.y.clamp(1, 16384);
         }
+        s
+    }
+
+    /// The settings actually rendered: full resolution, reduced while previewing.
+    pub fn effective_settings(&self) -> Settings {
+        let mut s = self.effective_settings_full();
         if self.preview {
             s.width = s.width.div_ceil(PREVIEW_DIVISOR);
             s.height = s.height.div_ceil(PREVIEW_DIVISOR);
@@ -192,7 +198,8 @@ impl ViewerState {
         let snap = self.session.snapshot();
         if snap.is_some() && self.awaiting_first_image {
             self.awaiting_first_image = false;
-            self.latencies.push(self.restarted.elapsed());
+            let preview = self.sent.settings.width < self.effective_settings_full().width;
+            self.latencies.push((self.restarted.elapsed(), preview));
         }
         snap
     }

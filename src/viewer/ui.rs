@@ -20,13 +20,15 @@ pub struct UiState {
     pub shown: Option<std::sync::Arc<Snapshot>>,
     /// Smoothed UI frame time in milliseconds.
     pub frame_ms: f32,
+    /// The user asked to quit (Ctrl+Q).
+    pub quit: bool,
     last_input: Option<Instant>,
 }
 
 impl UiState {
     /// Empty UI state.
     pub fn new() -> Self {
-        Self { texture: None, shown: None, frame_ms: 0.0, last_input: None }
+        Self { texture: None, shown: None, frame_ms: 0.0, quit: false, last_input: None }
     }
 }
 
@@ -44,6 +46,7 @@ pub fn draw(ui: &mut Ui, state: &mut ViewerState, ui_state: &mut UiState) {
     if ui.input(|i| i.key_pressed(Key::F12)) {
         screenshot(state);
     }
+    ui_state.quit |= ui.input(|i| i.modifiers.command && i.key_pressed(Key::Q));
 }
 
 fn screenshot(state: &mut ViewerState) {
@@ -69,7 +72,7 @@ fn status(ui: &mut Ui, state: &ViewerState, ui_state: &UiState) {
             ui.label("first pass...");
         }
     }
-    let latency = state.latencies.last().map_or("-".into(), |d| format!("{:.0} ms", d.as_secs_f64() * 1e3));
+    let latency = state.latencies.last().map_or("-".into(), |d| format!("{:.0} ms", d.0.as_secs_f64() * 1e3));
     ui.label(format!("UI frame {:.1} ms, restart to image {latency}", ui_state.frame_ms));
 }
 
@@ -178,7 +181,7 @@ fn camera(ui: &mut Ui, state: &mut ViewerState) {
     }
     let radius = state.scene.radius().max(1e-3);
     ui.add(egui::Slider::new(&mut state.fly_speed, radius * 1e-3..=radius * 4.0).logarithmic(true).text("fly speed"));
-    ui.label("drag: orbit, shift/middle drag: pan, wheel: dolly, right drag: look, WASD/QE: fly, click: select");
+    ui.label("drag: orbit, shift/middle drag: pan, wheel: dolly, right drag: look, WASD/QE: fly, click: select, Ctrl+Q: quit");
     ui.horizontal(|ui| {
         if ui.button("Reset").clicked() {
             state.reset_camera(if state.scene.cameras.is_empty() { None } else { Some(0) });
