@@ -80,3 +80,33 @@ fn bad_input_gives_one_line_errors_and_no_file() {
     std::fs::write(&garbage, b"glTF\x02\x00\x00\x00garbage").unwrap();
     fails_in_one_line(&["render", garbage.to_str().unwrap(), "--out", o], "broken.glb", &out);
 }
+
+#[test]
+fn a_saved_view_renders_headless_and_options_override_it() {
+    use lucent::config::ViewFile;
+    use lucent::integrator::Settings;
+    let dir = out_dir("view");
+    let view = dir.join("v.toml");
+    let settings = Settings { width: 24, height: 16, max_depth: 0, ..Settings::default() };
+    ViewFile { settings, ..ViewFile::default() }.save(&view).unwrap();
+    let render = |extra: &[&str], out: &Path| {
+        let mut args = vec!["render", "--spp", "2", "--out", out.to_str().unwrap()];
+        args.extend_from_slice(extra);
+        let o = lucent(&args);
+        assert!(o.status.success(), "{}", stderr(&o));
+        image::open(out).unwrap().into_rgb32f()
+    };
+    let from_view = render(&["--view", view.to_str().unwrap()], &dir.join("a.exr"));
+    let from_flags = render(&["--width", "24", "--height", "16", "--max-depth", "0"], &dir.join("b.exr"));
+    assert_eq!(from_view.dimensions(), (24, 16));
+    assert!(from_view.as_raw() == from_flags.as_raw(), "the view file sets the same image as the flags");
+    let overridden = render(&["--view", view.to_str().unwrap(), "--max-depth", "3"], &dir.join("c.exr"));
+    assert!(overridden.as_raw() != from_view.as_raw(), "--max-depth overrides the file");
+    std::fs::write(&view, "[settings]\nwidth = \"wide\"\n").unwrap();
+    let clean = out_dir("view-bad").join("d.png");
+    fails_in_one_line(
+        &["render", "--view", view.to_str().unwrap(), "--out", clean.to_str().unwrap()],
+        "v.toml",
+        &clean,
+    );
+}
