@@ -1,6 +1,7 @@
 //! Saved views: a camera, render settings and display settings in a small TOML file,
 //! written by the viewer and read by both the viewer and `lucent render --view`.
 
+use crate::film::output::replace_file;
 use crate::film::tonemap::Display;
 use crate::integrator::Settings;
 use crate::scene::camera::Camera;
@@ -38,11 +39,7 @@ impl ViewFile {
     pub fn save(&self, path: &Path) -> Result<(), String> {
         let fail = |e: &dyn std::fmt::Display| format!("cannot write view file {}: {e}", path.display());
         let text = toml::to_string_pretty(self).map_err(|e| fail(&e))?;
-        let tmp = path.with_extension("toml.partial");
-        std::fs::write(&tmp, text).and_then(|_| std::fs::rename(&tmp, path)).map_err(|e| {
-            let _ = std::fs::remove_file(&tmp);
-            fail(&e)
-        })
+        replace_file(path, |tmp| std::fs::write(tmp, &text)).map_err(|e| e.to_string())
     }
 }
 

@@ -79,18 +79,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         return Err("the time budget ended before the first pass completed: give more --time".into());
     };
     write_image(&args.out, snap.width, snap.height, &snap.mean, &resolved.display).map_err(|e| e.to_string())?;
-    println!(
-        "{}: {} spp at {}x{} in {:.2} s: {:.2} Msamples/s, {:.2} Mrays/s, {} NaN/Inf samples dropped; wrote {}",
-        scene.name,
-        snap.spp,
-        snap.width,
-        snap.height,
-        snap.elapsed.as_secs_f64(),
-        snap.samples_per_second() / 1e6,
-        snap.rays_per_second() / 1e6,
-        snap.rejected,
-        args.out.display()
-    );
+    println!("{}; wrote {}", snap.summary(&scene.name), args.out.display());
     Ok(())
 }
 

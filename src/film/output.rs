@@ -54,6 +54,21 @@ pub fn check_writable(path: &Path) -> Result<Format, OutputError> {
     Ok(format)
 }
 
+/// Writes `path` through a temporary file beside it that `write` fills and that is then
+/// renamed into place, so a failure never leaves a half-written file; errors name `path`.
+pub fn replace_file<E: std::fmt::Display>(
+    path: &Path,
+    write: impl FnOnce(&Path) -> Result<(), E>,
+) -> Result<(), OutputError> {
+    let tmp = temp_path(path);
+    let result =
+        write(&tmp).map_err(|e| e.to_string()).and_then(|_| std::fs::rename(&tmp, path).map_err(|e| e.to_string()));
+    result.map_err(|reason| {
+        let _ = std::fs::remove_file(&tmp);
+        OutputError::Write { path: path.to_owned(), reason }
+    })
+}
+
 /// Writes a row-major linear image, shown through `display` for PNG.
 pub fn write_image(
     path: &Path,
@@ -63,29 +78,19 @@ pub fn write_image(
     display: &Display,
 ) -> Result<(), OutputError> {
     let format = format_of(path)?;
-    let tmp = temp_path(path);
-    let err = |e: &dyn std::fmt::Display| OutputError::Write { path: path.to_owned(), reason: e.to_string() };
-    let result = match format {
+    replace_file(path, |tmp| match format {
         Format::Png => {
             let bytes: Vec<u8> = pixels.iter().flat_map(|&p| display.to_srgb8(p)).collect();
             image::RgbImage::from_raw(width, height, bytes)
                 .expect("buffer matches size")
-                .save_with_format(&tmp, image::ImageFormat::Png)
+                .save_with_format(tmp, image::ImageFormat::Png)
         }
         Format::Exr => {
             let floats: Vec<f32> = pixels.iter().flat_map(|p| p.to_array()).collect();
             image::Rgb32FImage::from_raw(width, height, floats)
                 .expect("buffer matches size")
-                .save_with_format(&tmp, image::ImageFormat::OpenExr)
+                .save_with_format(tmp, image::ImageFormat::OpenExr)
         }
-    };
-    if let Err(e) = result {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(err(&e));
-    }
-    std::fs::rename(&tmp, path).map_err(|e| {
-        let _ = std::fs::remove_file(&tmp);
-        err(&e)
     })
 }
 

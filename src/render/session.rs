@@ -61,6 +61,20 @@ impl Snapshot {
         self.rays as f64 / self.elapsed.as_secs_f64().max(1e-9)
     }
 
+    /// One line of figures: spp, size, time, samples/s, rays/s and NaN/Inf samples dropped.
+    pub fn summary(&self, scene: &str) -> String {
+        format!(
+            "{scene}: {} spp at {}x{} in {:.2} s: {:.2} Msamples/s, {:.2} Mrays/s, {} NaN/Inf samples dropped",
+            self.spp,
+            self.width,
+            self.height,
+            self.elapsed.as_secs_f64(),
+            self.samples_per_second() / 1e6,
+            self.rays_per_second() / 1e6,
+            self.rejected
+        )
+    }
+
     /// Estimated remaining noise: the mean over lit pixels of the relative standard error of
     /// the pixel's luminance (its variance taken as sum w_c^2 var_c, ignoring the covariance
     /// between channels). None before two samples per pixel.

@@ -174,19 +174,7 @@ impl App {
         }
         match self.state.save_images(&snap, path) {
             Ok(()) => {
-                println!(
-                    "{}: {} spp at {}x{} in {:.2} s: {:.2} Msamples/s, {:.2} Mrays/s, {} NaN/Inf dropped; {}; wrote {}",
-                    self.state.scene.name,
-                    snap.spp,
-                    snap.width,
-                    snap.height,
-                    snap.elapsed.as_secs_f64(),
-                    snap.samples_per_second() / 1e6,
-                    snap.rays_per_second() / 1e6,
-                    snap.rejected,
-                    self.summary(),
-                    path.display()
-                );
+                println!("{}; {}; wrote {}", snap.summary(&self.state.scene.name), self.summary(), path.display());
                 event_loop.exit();
             }
             Err(e) => self.fail(event_loop, e),
