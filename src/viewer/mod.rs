@@ -145,6 +145,10 @@ impl App {
         self.state.poll_loading();
         self.update_image();
         let Some((window, gpu, egui_state)) = &mut self.window else { return };
+        let title = format!("Lucent: {}", self.state.scene.name);
+        if window.title() != title {
+            window.set_title(&title);
+        }
         let input = egui_state.take_egui_input(window);
         let (state, ui_state) = (&mut self.state, &mut self.ui);
         let output = self.egui.run_ui(input, |ui| ui::draw(ui, state, ui_state));
