@@ -85,7 +85,6 @@ pub struct ViewerState {
     /// Path of the view file to save or load.
     pub view_path: String,
     loading: Option<Loading>,
-    threads: Option<usize>,
     restarted: Instant,
     /// Times from a restart to the first image of the new job, and whether it was a preview.
     pub latencies: Vec<(Duration, bool)>,
@@ -132,7 +131,6 @@ impl ViewerState {
             open_path: String::new(),
             view_path: "view.toml".into(),
             loading: None,
-            threads,
             restarted: Instant::now(),
             latencies: Vec::new(),
             awaiting_first_image: true,
@@ -379,11 +377,6 @@ impl ViewerState {
         self.settings = view.settings;
         self.display = view.display;
         Ok(())
-    }
-
-    /// Worker thread count the session was started with.
-    pub fn threads(&self) -> Option<usize> {
-        self.threads
     }
 }
 
