@@ -1,6 +1,8 @@
 //! glTF 2.0 loading (.gltf with external or embedded buffers, .glb) with the gltf crate:
 //! node transforms flattened into world-space meshes, materials, textures, punctual lights
 //! and cameras. Anything not supported yet is reported once as a warning, never dropped silently.
+//! Transforms are composed in f64 and everything is stored relative to the centre of the
+//! scene's bounds, so a model placed far from the origin keeps its f32 precision.
 
 use super::LoadError;
 use crate::scene::{
@@ -10,7 +12,7 @@ use crate::scene::{
     material::Material,
     texture::{Image, Texture, Wrap},
 };
-use glam::{Mat3, Mat4, Vec2, Vec3};
+use glam::{DMat3, DMat4, DVec3, Vec2, Vec3};
 use gltf::{Document, Semantic, buffer, image, khr_lights_punctual::Kind, mesh::Mode, texture::WrappingMode};
 use std::collections::BTreeSet;
 use std::path::Path;
@@ -121,28 +123,31 @@ fn convert(
             return Ok(desc);
         }
     };
-    let mut stack: Vec<(gltf::Node, Mat4, usize)> = scene.nodes().map(|n| (n, Mat4::IDENTITY, 0)).collect();
+    let mut placed: Vec<(MeshDesc, Vec<DVec3>)> = Vec::new();
+    let mut lights: Vec<(PunctualLight, DVec3)> = Vec::new();
+    let mut cameras: Vec<(String, Camera, DVec3)> = Vec::new();
+    let mut stack: Vec<(gltf::Node, DMat4, usize)> = scene.nodes().map(|n| (n, DMat4::IDENTITY, 0)).collect();
     while let Some((node, parent, depth)) = stack.pop() {
         if depth > MAX_NODE_DEPTH {
             return Err(format!("node hierarchy deeper than {MAX_NODE_DEPTH} (cyclic?)"));
         }
-        let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
+        let world = parent * DMat4::from_cols_array_2d(&node.transform().matrix().map(|c| c.map(f64::from)));
         if let Some(mesh) = node.mesh() {
             for prim in mesh.primitives() {
-                if let Some(m) = convert_primitive(&prim, buffers, world, default_material, &mut warnings)? {
-                    desc.meshes.push(MeshDesc { name: mesh.name().unwrap_or("mesh").into(), ..m });
+                if let Some((m, p)) = convert_primitive(&prim, buffers, world, default_material, &mut warnings)? {
+                    placed.push((MeshDesc { name: mesh.name().unwrap_or("mesh").into(), ..m }, p));
                 }
             }
         }
         if let Some(light) = node.light() {
-            desc.lights.push(convert_light(&light, world));
+            lights.push(convert_light(&light, world));
         }
         if let Some(camera) = node.camera() {
             match camera.projection() {
                 gltf::camera::Projection::Perspective(p) => {
                     let (_, rotation, position) = world.to_scale_rotation_translation();
-                    let cam = Camera { position, rotation: rotation.normalize(), yfov: p.yfov() };
-                    desc.cameras.push((camera.name().unwrap_or("camera").into(), cam));
+                    let cam = Camera { position: Vec3::ZERO, rotation: rotation.as_quat().normalize(), yfov: p.yfov() };
+                    cameras.push((camera.name().unwrap_or("camera").into(), cam, position));
                 }
                 gltf::camera::Projection::Orthographic(_) => {
                     warnings.add("orthographic cameras are not supported yet: ignored");
@@ -151,6 +156,18 @@ fn convert(
         }
         stack.extend(node.children().map(|c| (c, world, depth + 1)));
     }
+    let bounds = placed
+        .iter()
+        .flat_map(|(_, p)| p)
+        .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), &v| (lo.min(v), hi.max(v)));
+    let centre = if bounds.0.is_finite() && bounds.1.is_finite() { 0.5 * (bounds.0 + bounds.1) } else { DVec3::ZERO };
+    let relative = |p: DVec3| (p - centre).as_vec3();
+    desc.meshes = placed
+        .into_iter()
+        .map(|(mesh, p)| MeshDesc { positions: p.into_iter().map(relative).collect(), ..mesh })
+        .collect();
+    desc.lights = lights.into_iter().map(|(l, p)| PunctualLight { position: relative(p), ..l }).collect();
+    desc.cameras = cameras.into_iter().map(|(n, c, p)| (n, Camera { position: relative(p), ..c })).collect();
     if desc.meshes.iter().any(|m| m.material == default_material) {
         desc.materials.push(Material { name: "glTF default".into(), ..Material::default() });
     }
@@ -275,10 +292,10 @@ fn check_accessor(a: &gltf::Accessor, buffers: &[buffer::Data]) -> Result<(), St
 fn convert_primitive(
     prim: &gltf::Primitive,
     buffers: &[buffer::Data],
-    world: Mat4,
+    world: DMat4,
     default_material: u32,
     warnings: &mut Warnings,
-) -> Result<Option<MeshDesc>, String> {
+) -> Result<Option<(MeshDesc, Vec<DVec3>)>, String> {
     let mode = prim.mode();
     if !matches!(mode, Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan) {
         warnings.add(format!("primitives of mode {mode:?} are not rendered"));
@@ -295,13 +312,13 @@ fn convert_primitive(
         warnings.add("a primitive without POSITION was skipped");
         return Ok(None);
     };
-    let positions: Vec<Vec3> = positions.map(|p| world.transform_point3(Vec3::from(p))).collect();
+    let positions: Vec<DVec3> = positions.map(|p| world.transform_point3(Vec3::from(p).as_dvec3())).collect();
     let n = positions.len();
-    let normal_matrix = Mat3::from_mat4(world).inverse().transpose();
+    let normal_matrix = DMat3::from_mat4(world).inverse().transpose();
     let normals = if prim.get(&Semantic::Normals).is_some() {
-        reader
-            .read_normals()
-            .map(|it| it.map(|v| (normal_matrix * Vec3::from(v)).normalize_or_zero()).collect::<Vec<_>>())
+        reader.read_normals().map(|it| {
+            it.map(|v| (normal_matrix * Vec3::from(v).as_dvec3()).normalize_or_zero().as_vec3()).collect::<Vec<_>>()
+        })
     } else {
         None
     };
@@ -321,7 +338,7 @@ fn convert_primitive(
         indices.chunks_exact_mut(3).for_each(|t| t.swap(1, 2));
     }
     let material = prim.material().index().map_or(default_material, |i| i as u32);
-    Ok(Some(MeshDesc { name: String::new(), positions, normals, uvs, indices, material }))
+    Ok(Some((MeshDesc { name: String::new(), positions: Vec::new(), normals, uvs, indices, material }, positions)))
 }
 
 /// Triangle list from a list, strip or fan, keeping counter-clockwise front faces.
@@ -338,7 +355,7 @@ fn triangulate(mode: Mode, idx: &[u32]) -> Vec<u32> {
 /// A KHR_lights_punctual light placed by its node. Photometric intensities are used 1:1
 /// as radiometric ones: 1 cd is radiant intensity 1 W/sr and 1 lx is irradiance 1 W/m^2,
 /// on the same scale as emissive radiance (as the Khronos sample viewer does); `range` is ignored.
-fn convert_light(light: &gltf::khr_lights_punctual::Light, world: Mat4) -> PunctualLight {
+fn convert_light(light: &gltf::khr_lights_punctual::Light, world: DMat4) -> (PunctualLight, DVec3) {
     let kind = match light.kind() {
         Kind::Directional => PunctualKind::Directional,
         Kind::Point => PunctualKind::Point,
@@ -346,11 +363,12 @@ fn convert_light(light: &gltf::khr_lights_punctual::Light, world: Mat4) -> Punct
             PunctualKind::Spot { cos_inner: inner_cone_angle.cos(), cos_outer: outer_cone_angle.cos() }
         }
     };
-    PunctualLight {
+    let light = PunctualLight {
         name: light.name().unwrap_or("light").into(),
         kind,
-        position: world.transform_point3(Vec3::ZERO),
-        direction: world.transform_vector3(-Vec3::Z).normalize_or(-Vec3::Z),
+        position: Vec3::ZERO,
+        direction: world.transform_vector3(-DVec3::Z).normalize_or(-DVec3::Z).as_vec3(),
         intensity: Vec3::from(light.color()) * light.intensity(),
-    }
+    };
+    (light, world.transform_point3(DVec3::ZERO))
 }

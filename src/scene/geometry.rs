@@ -3,9 +3,9 @@
 use glam::{Vec2, Vec3, Vec3A};
 use obvhs::{
     BvhBuildParams,
-    cwbvh::{CwBvh, builder::build_cwbvh_from_tris},
+    aabb::Aabb,
+    cwbvh::{CwBvh, builder::build_cwbvh},
     ray::{Ray as BvhRay, RayHit},
-    triangle::Triangle,
 };
 use std::time::Duration;
 
@@ -49,23 +49,42 @@ pub struct Geometry {
     bvh: CwBvh,
     positions: Vec<[Vec3; 3]>,
     attrs: Vec<TriAttrs>,
+    /// Length of the direction handed to obvhs, so that its ray parameter is in units of
+    /// 1e-5 of the scene's size (see `to_bvh_ray`).
+    t_unit: f32,
 }
 
 impl Geometry {
     /// Builds obvhs's CWBVH over the triangles, then reorders triangles and attributes
-    /// once into BVH order so that traversal indexes them directly.
+    /// once into BVH order so that traversal indexes them directly. Each triangle's box is
+    /// padded by a bound on the rounding of obvhs's slab test (1e-6 of its coordinates'
+    /// magnitude plus 1e-7 of the scene's size): obvhs compares entry and exit with no
+    /// tolerance, so a ray aimed exactly at a vertex on a box corner could otherwise miss
+    /// every box around it and slip through a closed mesh.
     pub fn build(positions: Vec<[Vec3; 3]>, attrs: Vec<TriAttrs>) -> Self {
-        let tris: Vec<Triangle> =
-            positions.iter().map(|p| Triangle { v0: p[0].into(), v1: p[1].into(), v2: p[2].into() }).collect();
-        let bvh = if tris.is_empty() {
+        let (lo, hi) = positions
+            .iter()
+            .flatten()
+            .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &v| (lo.min(v), hi.max(v)));
+        let size = if positions.is_empty() { 1.0 } else { (hi - lo).length() };
+        let boxes: Vec<Aabb> = positions
+            .iter()
+            .map(|p| {
+                let (min, max) = (p[0].min(p[1]).min(p[2]), p[0].max(p[1]).max(p[2]));
+                let pad = Vec3::splat(1e-6 * min.abs().max(max.abs()).max_element() + 1e-7 * size);
+                Aabb::new((min - pad).into(), (max + pad).into())
+            })
+            .collect();
+        let bvh = if boxes.is_empty() {
             CwBvh::default()
         } else {
-            build_cwbvh_from_tris(&tris, BvhBuildParams::medium_build(), &mut Duration::default())
+            build_cwbvh(&boxes, BvhBuildParams::medium_build(), &mut Duration::default())
         };
+        let t_unit = (size * 1e-5).clamp(f32::MIN_POSITIVE * 1e10, 1e30);
         let order = &bvh.primitive_indices;
         let positions = order.iter().map(|&i| positions[i as usize]).collect();
         let attrs = order.iter().map(|&i| attrs[i as usize]).collect();
-        Self { bvh, positions, attrs }
+        Self { bvh, positions, attrs, t_unit }
     }
 
     /// Number of triangles (in BVH order, so including any duplicated references).
@@ -94,9 +113,10 @@ impl Geometry {
             return None;
         }
         let wt = Watertight::new(ray);
+        let (k, inv_k) = (self.t_unit, 1.0 / self.t_unit);
         let mut hit = RayHit::none();
-        let found = self.bvh.ray_traverse(to_bvh_ray(ray), &mut hit, |r, id| {
-            wt.intersect(&self.positions[id], r.tmax).map_or(f32::INFINITY, |(t, _)| t)
+        let found = self.bvh.ray_traverse(to_bvh_ray(ray, k), &mut hit, |r, id| {
+            wt.intersect(&self.positions[id], r.tmax * k).map_or(f32::INFINITY, |(t, _)| t * inv_k)
         });
         if !found {
             return None;
@@ -111,17 +131,32 @@ impl Geometry {
             return false;
         }
         let wt = Watertight::new(ray);
-        !self.bvh.ray_traverse_miss(to_bvh_ray(ray), |r, id| {
-            wt.intersect(&self.positions[id], r.tmax).map_or(f32::INFINITY, |(t, _)| t)
+        let (k, inv_k) = (self.t_unit, 1.0 / self.t_unit);
+        !self.bvh.ray_traverse_miss(to_bvh_ray(ray, k), |r, id| {
+            wt.intersect(&self.positions[id], r.tmax * k).map_or(f32::INFINITY, |(t, _)| t * inv_k)
         })
     }
 }
 
-/// The ray as obvhs takes it. Adding +0.0 turns -0.0 direction components into +0.0:
-/// obvhs inverts -0.0 to a large negative number but picks the traversal octant as if the
-/// component were positive, so axis-aligned rays with -0.0 components would miss everything.
-fn to_bvh_ray(ray: &Ray) -> BvhRay {
-    BvhRay::new(Vec3A::from(ray.o), Vec3A::from(ray.d + Vec3::ZERO), 0.0, ray.tmax)
+/// The ray as obvhs takes it, with its direction scaled to length `k` times the original.
+/// obvhs's CWBVH node test culls boxes whose exit is below t = 1e-4 (an absolute epsilon in
+/// ray-parameter units), which at scale 1e-4 culls the whole scene; with t in units of 1e-5
+/// of the scene's size, that cut is at 1e-9 of it, below f32 precision. The reciprocal is
+/// exact: obvhs's `Ray::new` clamps components below f32::EPSILON to +-1/EPSILON, moving
+/// the slab planes so that rays aimed at a vertex with a 1e-9 component miss its boxes.
+/// Zero components get +1e30 (no 0 x inf NaN, no overflow in the quantised slab tests),
+/// and adding +0.0 turns -0.0 into +0.0, matching the octant obvhs takes from the sign.
+fn to_bvh_ray(ray: &Ray, k: f32) -> BvhRay {
+    let d = ray.d * k + Vec3::ZERO;
+    let limit = Vec3::splat(1e30);
+    let inv = Vec3::select(d.cmpeq(Vec3::ZERO), limit, (Vec3::ONE / d).clamp(-limit, limit));
+    BvhRay {
+        origin: Vec3A::from(ray.o),
+        direction: Vec3A::from(d),
+        inv_direction: Vec3A::from(inv),
+        tmin: 0.0,
+        tmax: ray.tmax / k,
+    }
 }
 
 /// Per-ray precomputation of the watertight ray/triangle test of Woop, Benthin and Wald

@@ -1,0 +1,194 @@
+//! Hard cases stay numerically stable: watertight intersection, no self-intersection,
+//! scale invariance, and exact long accumulation.
+
+mod common;
+
+use glam::{DVec3, UVec2, Vec3};
+use lucent::film::Film;
+use lucent::integrator::Settings;
+use lucent::loader::gltf;
+use lucent::math::sampler::Sampler;
+use lucent::math::warp::uniform_hemisphere;
+use lucent::render::Snapshot;
+use lucent::scene::{MeshDesc, Scene, SceneDesc, camera::Camera, geometry::Ray, material::Material};
+use std::f32::consts::PI;
+use std::path::PathBuf;
+use std::sync::Arc;
+
+/// A closed sphere (shared vertices, one vertex per pole, the seam wrapped by index) whose
+/// vertices are jittered radially by up to `jitter` of the radius.
+fn closed_sphere(radius: f32, stacks: u32, slices: u32, jitter: f32) -> MeshDesc {
+    let mut rng = Sampler::new(UVec2::new(1, 1), 0, 42);
+    let mut positions = vec![Vec3::Y * radius];
+    for i in 1..stacks {
+        let theta = PI * i as f32 / stacks as f32;
+        for j in 0..slices {
+            let phi = 2.0 * PI * j as f32 / slices as f32;
+            let r = radius * (1.0 + jitter * (2.0 * rng.next_1d() - 1.0));
+            positions.push(r * Vec3::new(theta.sin() * phi.cos(), theta.cos(), theta.sin() * phi.sin()));
+        }
+    }
+    positions.push(-Vec3::Y * radius);
+    let ring = |i: u32, j: u32| 1 + (i - 1) * slices + j % slices;
+    let south = positions.len() as u32 - 1;
+    let mut indices = Vec::new();
+    for j in 0..slices {
+        indices.extend_from_slice(&[0, ring(1, j + 1), ring(1, j)]);
+        indices.extend_from_slice(&[south, ring(stacks - 1, j), ring(stacks - 1, j + 1)]);
+    }
+    for i in 1..stacks - 1 {
+        for j in 0..slices {
+            let (a, b, c, d) = (ring(i, j), ring(i, j + 1), ring(i + 1, j + 1), ring(i + 1, j));
+            indices.extend_from_slice(&[a, b, c, a, c, d]);
+        }
+    }
+    MeshDesc { name: "sphere".into(), positions, normals: None, uvs: None, indices, material: 0 }
+}
+
+fn sphere_scene(mesh: MeshDesc) -> Scene {
+    Scene::build(SceneDesc {
+        name: "sphere".into(),
+        meshes: vec![mesh],
+        materials: vec![Material::lambert("grey", Vec3::splat(0.5))],
+        ..SceneDesc::default()
+    })
+}
+
+fn random_direction(s: &mut Sampler) -> Vec3 {
+    let d = uniform_hemisphere(s.next_2d());
+    if s.next_1d() < 0.5 { d } else { -d }
+}
+
+#[test]
+fn a_closed_jittered_sphere_is_watertight() {
+    let mesh = closed_sphere(1.0, 96, 192, 0.01);
+    let vertices = mesh.positions.clone();
+    let indices = mesh.indices.clone();
+    let scene = sphere_scene(mesh);
+    let mut s = Sampler::new(UVec2::new(3, 4), 0, 7);
+    let mut misses = 0;
+    for _ in 0..100_000 {
+        let o = Vec3::new(s.next_1d() - 0.5, s.next_1d() - 0.5, s.next_1d() - 0.5) * 1.0;
+        let ray = Ray { o, d: random_direction(&mut s), tmax: f32::INFINITY };
+        misses += scene.geometry.intersect(&ray).is_none() as u32;
+    }
+    // Rays from the centre aimed exactly at every vertex and at every edge midpoint.
+    let mut aimed = 0;
+    for tri in indices.chunks_exact(3) {
+        let p = [0, 1, 2].map(|k| vertices[tri[k] as usize]);
+        for target in [p[0], p[1], p[2], 0.5 * (p[0] + p[1]), 0.5 * (p[1] + p[2]), 0.5 * (p[2] + p[0])] {
+            let ray = Ray { o: Vec3::ZERO, d: target.normalize(), tmax: f32::INFINITY };
+            misses += scene.geometry.intersect(&ray).is_none() as u32;
+            aimed += 1;
+        }
+    }
+    assert!(aimed > 100_000);
+    assert_eq!(misses, 0, "rays escaped a closed mesh");
+}
+
+#[test]
+fn reflected_rays_never_re_hit_a_convex_sphere_even_at_grazing_angles() {
+    let scene = sphere_scene(closed_sphere(1.0, 128, 256, 0.0));
+    let mut s = Sampler::new(UVec2::new(5, 6), 0, 9);
+    let (mut hits, mut self_hits) = (0, 0);
+    for i in 0..50_000 {
+        // Aim at the sphere from outside, with impact parameters up to grazing.
+        let side = random_direction(&mut s);
+        let impact = if i % 2 == 0 { s.next_1d() } else { 1.0 - 1e-3 * s.next_1d() };
+        let perp = side.cross(random_direction(&mut s)).normalize();
+        let o = side * 3.0 + perp * impact;
+        let ray = Ray { o, d: -side, tmax: f32::INFINITY };
+        let Some(hit) = scene.geometry.intersect(&ray) else { continue };
+        hits += 1;
+        let surface = scene.surface(&hit);
+        let n = if surface.ng.dot(ray.d) < 0.0 { surface.ng } else { -surface.ng };
+        let r = ray.d - 2.0 * ray.d.dot(n) * n;
+        let origin = lucent::math::float::offset_ray_origin(surface.p, surface.p_error, n, r);
+        self_hits += scene.geometry.intersect(&Ray { o: origin, d: r, tmax: f32::INFINITY }).is_some() as u32;
+    }
+    assert!(hits > 40_000);
+    assert_eq!(self_hits, 0, "reflections re-hit the convex surface they left");
+}
+
+/// Per-block (8x8) means and variances, for comparing two images.
+fn blocks(s: &Snapshot) -> Vec<(DVec3, DVec3)> {
+    let (w, b) = (s.width, 8);
+    let mut out = vec![(DVec3::ZERO, DVec3::ZERO); ((w / b) * (s.height / b)) as usize];
+    let n = (b * b) as f64;
+    for (i, (m, v)) in s.mean.iter().zip(&s.variance).enumerate() {
+        let (x, y) = (i as u32 % w, i as u32 / w);
+        let k = ((y / b) * (w / b) + x / b) as usize;
+        out[k].0 += m.as_dvec3() / n;
+        out[k].1 += v.as_dvec3() / (n * n);
+    }
+    out
+}
+
+/// The Cornell box glTF under a new root node that scales it by `scale` and translates it
+/// by `offset` on every axis, as a file placing a model far from the origin would.
+fn cornell_placed(scale: f64, offset: f64) -> PathBuf {
+    let text = std::fs::read_to_string(common::shared().join("scenes/cornell-box.gltf")).unwrap();
+    let mut doc: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let children = doc["scenes"][0]["nodes"].clone();
+    let nodes = doc["nodes"].as_array_mut().unwrap();
+    nodes.push(serde_json::json!({
+        "name": "placement",
+        "children": children,
+        "scale": [scale, scale, scale],
+        "translation": [offset, offset, offset]
+    }));
+    let root = nodes.len() - 1;
+    doc["scenes"][0]["nodes"] = serde_json::json!([root]);
+    let dir = std::env::temp_dir().join(format!("lucent-robust-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join(format!("cornell-{scale}-{offset}.gltf"));
+    std::fs::write(&path, serde_json::to_vec(&doc).unwrap()).unwrap();
+    path
+}
+
+#[test]
+fn the_cornell_box_renders_the_same_at_any_scale_and_far_from_the_origin() {
+    let settings = Settings { width: 64, height: 64, target_spp: Some(32), seed: 11, ..Settings::default() };
+    let render = |scale: f64, offset: f64| {
+        let scene = Arc::new(Scene::build(gltf::load(&cornell_placed(scale, offset)).unwrap()));
+        let camera: Camera = scene.default_camera(1.0);
+        common::render(&scene, camera, settings, None)
+    };
+    let reference = render(1.0, 0.0);
+    let variants = [(1e-4, 0.0), (1e4, 0.0), (1.0, 1e5), (1e-4, 1e5)];
+    let reference_blocks = blocks(&reference);
+    let z_max = common::sidak_z(1e-3, variants.len() * reference_blocks.len() * 3);
+    for (scale, offset) in variants {
+        let snap = render(scale, offset);
+        assert_eq!(snap.rejected, 0, "scale {scale}, offset {offset}: NaN/Inf");
+        for (b, (t, r)) in blocks(&snap).iter().zip(&reference_blocks).enumerate() {
+            for c in 0..3 {
+                let se = (t.1[c] + r.1[c]).sqrt().max(1e-12);
+                let z = (t.0[c] - r.0[c]) / se;
+                assert!(
+                    z.abs() < z_max,
+                    "scale {scale}, offset {offset}: block {b} channel {c}: {:.4} vs {:.4} (z {z:.1})",
+                    t.0[c],
+                    r.0[c]
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn a_million_samples_keep_the_exact_mean() {
+    // Samples on a 2^-20 grid below 16 are exact in f32 and their sum is exact in integers.
+    let mut film = Film::new(1, 1);
+    let mut s = Sampler::new(UVec2::ZERO, 0, 5);
+    let mut exact: u128 = 0;
+    let n = 1_000_000u64;
+    for _ in 0..n {
+        let k = (s.next_1d() * (1u32 << 24) as f32) as u64;
+        exact += k as u128;
+        film.tiles[0].add(UVec2::ZERO, Vec3::splat(k as f32 / (1u32 << 20) as f32));
+    }
+    let exact_mean = exact as f64 / (1u64 << 20) as f64 / n as f64;
+    let mean = film.mean_image()[0].x as f64;
+    assert!(((mean - exact_mean) / exact_mean).abs() < 1e-6, "{mean} vs {exact_mean}");
+}
