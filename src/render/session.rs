@@ -183,10 +183,14 @@ impl RenderSession {
         self.shared.generation.load(Ordering::SeqCst)
     }
 
-    /// Pauses or resumes the workers (a pass in flight completes first).
+    /// Pauses or resumes the workers (a pass in flight completes first); wakes the
+    /// session only when the state changes, so calling it every UI frame costs a lock.
     pub fn set_paused(&self, paused: bool) {
-        self.shared.lock().paused = paused;
-        self.shared.wake.notify_all();
+        let mut state = self.shared.lock();
+        if state.paused != paused {
+            state.paused = paused;
+            self.shared.wake.notify_all();
+        }
     }
 
     /// The latest published snapshot of the current generation, without waiting.
