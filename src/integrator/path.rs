@@ -2,10 +2,11 @@
 //! importance sampling (10.8), explicit light sampling (10.9) or MIS, and Russian roulette.
 //! Monomorphised over the scene's `Features`, so absent effects cost nothing.
 
-use super::settings::{LightSampling, PixelSampling, Settings};
+use super::nan::{NanCause, check};
+use super::settings::{LightSampling, PixelSampling, Robustness, Settings};
 use crate::bsdf::{Bsdf, Strategy};
 use crate::math::{
-    float::{interpolation_error, offset_ray_origin},
+    float::{gamma, interpolation_error, offset_ray_origin},
     frame::Frame,
     sampler::{Sampler, hash3},
     warp,
@@ -15,6 +16,7 @@ use crate::scene::{
     camera::RayGenerator,
     geometry::Ray,
     light::{LightRef, PunctualKind},
+    shading::{bend_normal, terminator_offset},
 };
 use glam::{UVec2, Vec2, Vec3};
 
@@ -79,7 +81,9 @@ fn sample_pixel<const E: bool, const P: bool, const T: bool, const G: bool>(
 ) -> PathOutput {
     let mut sampler = Sampler::new(pixel, index, settings.seed);
     let film = pixel.as_vec2() + pixel_offset(settings, pixel, index, &mut sampler);
-    let mut out = radiance::<E, P, T, G>(scene, settings, camera.ray(film), &mut sampler);
+    let ray = camera.ray(film);
+    check(NanCause::CameraRay, ray.o + ray.d);
+    let mut out = radiance::<E, P, T, G>(scene, settings, ray, &mut sampler);
     if let Some(c) = settings.firefly_clamp {
         let m = out.radiance.max_element();
         if m > c {
@@ -112,9 +116,10 @@ fn radiance<const E: bool, const P: bool, const T: bool, const G: bool>(
     let mut rays = 0u32;
     let mut prev: Option<PrevBounce> = None;
     let mut depth = 0u32;
+    let robust = settings.robustness;
     loop {
         rays += 1;
-        let Some(hit) = scene.geometry.intersect(&ray) else { break };
+        let Some(hit) = scene.geometry.intersect_with(&ray, robust.watertight) else { break };
         let surface = scene.surface(&hit);
         let wo_world = -ray.d;
         let front = surface.ng.dot(wo_world) > 0.0;
@@ -133,25 +138,29 @@ fn radiance<const E: bool, const P: bool, const T: bool, const G: bool>(
                     power_heuristic(b.pdf, pdf_light)
                 }
             };
+            check(NanCause::Emission, le);
             radiance += throughput * le * weight;
         }
         if depth == settings.max_depth {
             break;
         }
 
-        // Shading frame, turned to the side the ray arrived from (two-sided shading); a
-        // shading normal on the other side of the surface falls back to the geometric one.
+        // Shading frame, turned to the side the ray arrived from (every surface is shaded
+        // two-sided); a shading normal on the other side of the surface falls back to the
+        // geometric one, and one that would reflect the view below the surface is bent.
         let ng = if front { surface.ng } else { -surface.ng };
         let ns = if front { surface.ns } else { -surface.ns };
-        let ns = if ns.dot(ng) > 0.0 { ns } else { ng };
+        let ns = bend_normal(ng, wo_world, if ns.dot(ng) > 0.0 { ns } else { ng });
         let frame = Frame::from_normal(ns);
         let wo = frame.to_local(wo_world);
         let bsdf = material.bsdf::<T, G>(&scene.textures, &scene.images, surface.uv);
+        let origin = reflection_origin(scene, &surface, front, ng, robust);
 
         // Light sampling: one shadow ray towards a light chosen by power.
         if (E || P) && settings.light_sampling != LightSampling::Off {
-            let shade = Shading { surface: &surface, ng, frame: &frame, wo, bsdf: &bsdf, strategy };
+            let shade = Shading { surface: &surface, frame: &frame, wo, bsdf: &bsdf, strategy, origin };
             let (l, traced) = sample_light::<E, P, T>(scene, settings, &shade, sampler);
+            check(NanCause::LightSample, l);
             radiance += throughput * l;
             rays += traced as u32;
         }
@@ -160,13 +169,11 @@ fn radiance<const E: bool, const P: bool, const T: bool, const G: bool>(
         let u_lobe = sampler.next_1d();
         let u = sampler.next_2d();
         let Some(bs) = bsdf.sample(wo, u_lobe, u, strategy) else { break };
+        check(NanCause::BsdfSample, bs.weight);
         let wi = frame.to_world(bs.wi);
-        if wi.dot(ng) <= 0.0 {
-            break;
-        }
         throughput *= bs.weight;
         prev = Some(PrevBounce { pdf: bs.pdf });
-        ray = Ray { o: offset_ray_origin(surface.p, surface.p_error, ng, wi), d: wi, tmax: f32::INFINITY };
+        ray = Ray { o: origin, d: wi, tmax: f32::INFINITY };
         depth += 1;
 
         // Termination: Russian roulette on the throughput, survival capped below 1.
@@ -182,28 +189,43 @@ fn radiance<const E: bool, const P: bool, const T: bool, const G: bool>(
     PathOutput { radiance, rays }
 }
 
+/// Where rays reflected at a surface point leave from: the point, lifted onto the smooth
+/// surface of its vertex normals by the shadow-terminator offset where that moves it out of
+/// the facet, then pushed past its floating-point error on the side of `ng` (the side the
+/// path arrived from). Reflected rays whose direction is above the shading normal but below
+/// the facet start there too: on a coarse convex mesh they escape, which is what removes
+/// the faceted shadow terminator; elsewhere they hit the facet and count as shadowed.
+fn reflection_origin(scene: &Scene, surface: &Surface, front: bool, ng: Vec3, robust: Robustness) -> Vec3 {
+    let (mut p, mut error) = (surface.p, surface.p_error);
+    if robust.terminator {
+        let normals = scene.geometry.attrs(surface.tri).normals;
+        let normals = if front { normals } else { normals.map(|n| -n) };
+        let lift = terminator_offset(p, surface.b, scene.geometry.positions(surface.tri), &normals);
+        if lift.dot(ng) > 0.0 {
+            // The sum rounds by at most gamma(1) of its magnitude; lift's own rounding only
+            // changes by how much the point is lifted, not the side it ends up on.
+            error += gamma(2) * (p.abs() + lift.abs());
+            p += lift;
+        }
+    }
+    if robust.offset_origins { offset_ray_origin(p, error, ng, ng) } else { p }
+}
+
 /// What light sampling needs to know about the shading point.
 struct Shading<'a> {
     surface: &'a Surface,
-    ng: Vec3,
     frame: &'a Frame,
     wo: Vec3,
     bsdf: &'a Bsdf,
     strategy: Strategy,
+    /// Origin of shadow rays (see `reflection_origin`).
+    origin: Vec3,
 }
 
 impl Shading<'_> {
-    /// f |cos| towards world direction `wi`, zero below the geometric surface.
+    /// f |cos| towards world direction `wi`; zero below the shading hemisphere.
     fn eval(&self, wi: Vec3) -> Vec3 {
-        if wi.dot(self.ng) <= 0.0 {
-            return Vec3::ZERO;
-        }
         self.bsdf.eval_cos(self.wo, self.frame.to_local(wi))
-    }
-
-    /// Origin for a ray leaving towards `w`.
-    fn origin(&self, w: Vec3) -> Vec3 {
-        offset_ray_origin(self.surface.p, self.surface.p_error, self.ng, w)
     }
 }
 
@@ -246,10 +268,14 @@ fn sample_light<const E: bool, const P: bool, const T: bool>(
                 }
                 _ => 1.0,
             };
-            let origin = shade.origin(wi);
-            let target = offset_ray_origin(q, interpolation_error(b, *p), attrs.ng, -wi);
+            let origin = shade.origin;
+            let target = if settings.robustness.offset_origins {
+                offset_ray_origin(q, interpolation_error(b, *p), attrs.ng, -wi)
+            } else {
+                q
+            };
             let shadow = Ray { o: origin, d: target - origin, tmax: 1.0 };
-            if scene.geometry.occluded(&shadow) {
+            if scene.geometry.occluded_with(&shadow, settings.robustness.watertight) {
                 return (Vec3::ZERO, true);
             }
             (le * f * (weight / pdf), true)
@@ -269,9 +295,9 @@ fn sample_light<const E: bool, const P: bool, const T: bool>(
             if f == Vec3::ZERO || arriving == Vec3::ZERO || !wi.is_finite() {
                 return (Vec3::ZERO, false);
             }
-            let origin = shade.origin(wi);
+            let origin = shade.origin;
             let d = target.map_or(wi, |t| t - origin);
-            if scene.geometry.occluded(&Ray { o: origin, d, tmax }) {
+            if scene.geometry.occluded_with(&Ray { o: origin, d, tmax }, settings.robustness.watertight) {
                 return (Vec3::ZERO, true);
             }
             (arriving * f / pmf, true)

@@ -6,6 +6,7 @@ use obvhs::{
     aabb::Aabb,
     cwbvh::{CwBvh, builder::build_cwbvh},
     ray::{Ray as BvhRay, RayHit},
+    triangle::Triangle,
 };
 use std::time::Duration;
 
@@ -107,35 +108,76 @@ impl Geometry {
         &self.attrs[i as usize]
     }
 
-    /// Closest hit along the ray, if any.
+    /// Closest hit along the ray, if any (watertight test).
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
+        self.intersect_with(ray, true)
+    }
+
+    /// Whether anything blocks the ray before `tmax` (watertight test, early exit).
+    pub fn occluded(&self, ray: &Ray) -> bool {
+        self.occluded_with(ray, true)
+    }
+
+    /// Closest hit along the ray with the watertight test, or with obvhs's Moller-Trumbore
+    /// test when `watertight` is false (kept to measure and show what watertightness buys).
+    pub fn intersect_with(&self, ray: &Ray, watertight: bool) -> Option<Hit> {
         if self.is_empty() {
             return None;
         }
-        let wt = Watertight::new(ray);
         let (k, inv_k) = (self.t_unit, 1.0 / self.t_unit);
+        let bvh_ray = to_bvh_ray(ray, k);
         let mut hit = RayHit::none();
-        let found = self.bvh.ray_traverse(to_bvh_ray(ray, k), &mut hit, |r, id| {
-            wt.intersect(&self.positions[id], r.tmax * k).map_or(f32::INFINITY, |(t, _)| t * inv_k)
-        });
-        if !found {
+        if watertight {
+            let wt = Watertight::new(ray);
+            let found = self.bvh.ray_traverse(bvh_ray, &mut hit, |r, id| {
+                wt.intersect(&self.positions[id], r.tmax * k).map_or(f32::INFINITY, |(t, _)| t * inv_k)
+            });
+            if !found {
+                return None;
+            }
+            let (t, b) = wt.intersect(&self.positions[hit.primitive_id as usize], f32::INFINITY)?;
+            return Some(Hit { tri: hit.primitive_id, t, b });
+        }
+        if !self.bvh.ray_traverse(bvh_ray, &mut hit, |r, id| self.moller(id, r)) {
             return None;
         }
-        let (t, b) = wt.intersect(&self.positions[hit.primitive_id as usize], f32::INFINITY)?;
-        Some(Hit { tri: hit.primitive_id, t, b })
+        let p = &self.positions[hit.primitive_id as usize];
+        let t = hit.t * k;
+        Some(Hit { tri: hit.primitive_id, t, b: barycentrics(ray.o + t * ray.d, p) })
     }
 
-    /// Whether anything blocks the ray before `tmax` (early-exit traversal).
-    pub fn occluded(&self, ray: &Ray) -> bool {
+    /// Whether anything blocks the ray before `tmax`, with the test chosen as in `intersect_with`.
+    pub fn occluded_with(&self, ray: &Ray, watertight: bool) -> bool {
         if self.is_empty() {
             return false;
         }
-        let wt = Watertight::new(ray);
         let (k, inv_k) = (self.t_unit, 1.0 / self.t_unit);
-        !self.bvh.ray_traverse_miss(to_bvh_ray(ray, k), |r, id| {
-            wt.intersect(&self.positions[id], r.tmax * k).map_or(f32::INFINITY, |(t, _)| t * inv_k)
-        })
+        let bvh_ray = to_bvh_ray(ray, k);
+        if watertight {
+            let wt = Watertight::new(ray);
+            return !self.bvh.ray_traverse_miss(bvh_ray, |r, id| {
+                wt.intersect(&self.positions[id], r.tmax * k).map_or(f32::INFINITY, |(t, _)| t * inv_k)
+            });
+        }
+        !self.bvh.ray_traverse_miss(bvh_ray, |r, id| self.moller(id, r))
     }
+
+    /// obvhs's Moller-Trumbore test on triangle `id`, in obvhs's ray units; positive t only.
+    fn moller(&self, id: usize, r: &BvhRay) -> f32 {
+        let [v0, v1, v2] = self.positions[id].map(Vec3A::from);
+        let t = Triangle { v0, v1, v2 }.intersect(r);
+        if t > 0.0 { t } else { f32::INFINITY }
+    }
+}
+
+/// Barycentric weights of the projection of `q` onto the plane of triangle `p`.
+fn barycentrics(q: Vec3, p: &[Vec3; 3]) -> [f32; 3] {
+    let (e1, e2, d) = (p[1] - p[0], p[2] - p[0], q - p[0]);
+    let n = e1.cross(e2);
+    let inv = 1.0 / n.length_squared();
+    let b1 = d.cross(e2).dot(n) * inv;
+    let b2 = e1.cross(d).dot(n) * inv;
+    [1.0 - b1 - b2, b1, b2]
 }
 
 /// The ray as obvhs takes it, with its direction scaled to length `k` times the original.

@@ -5,6 +5,7 @@ pub mod camera;
 pub mod geometry;
 pub mod light;
 pub mod material;
+pub mod shading;
 pub mod shapes;
 pub mod texture;
 
@@ -91,6 +92,8 @@ pub struct Surface {
     pub material: u32,
     /// Triangle index (BVH order).
     pub tri: u32,
+    /// Barycentric weights of the triangle's vertices.
+    pub b: [f32; 3],
 }
 
 /// An immutable, shareable scene ready to render.
@@ -254,6 +257,7 @@ impl Scene {
             uv: a.uvs[0] * b[0] + a.uvs[1] * b[1] + a.uvs[2] * b[2],
             material: a.material,
             tri: hit.tri,
+            b,
         }
     }
 
