@@ -192,3 +192,102 @@ fn a_million_samples_keep_the_exact_mean() {
     let mean = film.mean_image()[0].x as f64;
     assert!(((mean - exact_mean) / exact_mean).abs() < 1e-6, "{mean} vs {exact_mean}");
 }
+
+#[test]
+fn obvhs_moller_trumbore_test_leaks_where_the_watertight_test_does_not() {
+    // The same rays as the watertight test, aimed exactly at vertices and edge midpoints:
+    // this is why the renderer uses its own test (and what `--without watertight` shows).
+    let mesh = closed_sphere(1.0, 96, 192, 0.01);
+    let (vertices, indices) = (mesh.positions.clone(), mesh.indices.clone());
+    let scene = sphere_scene(mesh);
+    let (mut leaks, mut watertight_leaks) = (0, 0);
+    for tri in indices.chunks_exact(3) {
+        let p = [0, 1, 2].map(|k| vertices[tri[k] as usize]);
+        for target in [p[0], 0.5 * (p[0] + p[1])] {
+            let ray = Ray { o: Vec3::ZERO, d: target.normalize(), tmax: f32::INFINITY };
+            leaks += scene.geometry.intersect_with(&ray, false).is_none() as u32;
+            watertight_leaks += scene.geometry.intersect_with(&ray, true).is_none() as u32;
+        }
+    }
+    assert_eq!(watertight_leaks, 0);
+    assert!(leaks > 0, "obvhs's test did not leak here; the watertight test may be unnecessary");
+}
+
+/// Snell refraction of `d` (unit, towards the surface) through unit normal `n` (against
+/// `d`) with relative index `eta`; None under total internal reflection.
+fn refract(d: Vec3, n: Vec3, eta: f32) -> Option<Vec3> {
+    let cos_i = -d.dot(n);
+    let sin2_t = (1.0 - cos_i * cos_i).max(0.0) / (eta * eta);
+    (sin2_t < 1.0).then(|| (d / eta + (cos_i / eta - (1.0 - sin2_t).sqrt()) * n).normalize())
+}
+
+#[test]
+fn refracted_and_internally_reflected_rays_neither_re_hit_nor_leak_at_grazing_angles() {
+    // Glass (eta 1.5) sphere: rays refracted into it must cross it and leave through another
+    // triangle; rays inside at grazing angles are totally reflected and must stay inside.
+    let scene = sphere_scene(closed_sphere(1.0, 128, 256, 0.0));
+    let mut s = Sampler::new(UVec2::new(8, 1), 0, 21);
+    let (mut refracted, mut tir) = (0, 0);
+    for i in 0..40_000 {
+        let side = random_direction(&mut s);
+        let impact = if i % 2 == 0 { s.next_1d() } else { 1.0 - 1e-3 * s.next_1d() };
+        let perp = side.cross(random_direction(&mut s)).normalize();
+        let ray = Ray { o: side * 3.0 + perp * impact, d: -side, tmax: f32::INFINITY };
+        let Some(hit) = scene.geometry.intersect(&ray) else { continue };
+        let surface = scene.surface(&hit);
+        let n = surface.ng; // outward; the ray arrives against it
+        let Some(t) = refract(ray.d, n, 1.5) else { continue };
+        let origin = lucent::math::float::offset_ray_origin(surface.p, surface.p_error, n, t);
+        let inside = scene.geometry.intersect(&Ray { o: origin, d: t, tmax: f32::INFINITY });
+        let exit = inside.expect("a refracted ray leaked out of the closed sphere");
+        assert_ne!(exit.tri, hit.tri, "refracted ray re-hit its own triangle");
+        refracted += 1;
+        // Inside, at the exit point, reflect; from a grazing direction chosen so that glass
+        // to air is totally reflected (sin > 1/1.5).
+        let exit_surface = scene.surface(&exit);
+        let n_in = -exit_surface.ng;
+        let tangent = n_in.cross(random_direction(&mut s)).normalize();
+        let d = (tangent * (1.0 - 1e-3 * s.next_1d()) - n_in * 0.02).normalize();
+        if refract(d, n_in, 1.0 / 1.5).is_some() {
+            continue;
+        }
+        let r = d - 2.0 * d.dot(n_in) * n_in;
+        let o = lucent::math::float::offset_ray_origin(exit_surface.p, exit_surface.p_error, n_in, r);
+        let again = scene.geometry.intersect(&Ray { o, d: r, tmax: f32::INFINITY });
+        let again = again.expect("an internally reflected ray leaked out of the closed sphere");
+        assert_ne!(again.tri, exit.tri, "internally reflected ray re-hit its own triangle");
+        tir += 1;
+    }
+    assert!(refracted > 30_000 && tir > 10_000, "{refracted} refracted, {tir} reflected");
+}
+
+#[test]
+fn the_terminator_offset_unshadows_points_the_shading_normals_light() {
+    // A coarse sphere with smooth normals under a directional light: points whose shading
+    // normal faces the light (cos > 0.05) but whose facet does not are shadowed by their own
+    // facet unless the ray origin is lifted onto the smooth surface.
+    let scene = Scene::build(SceneDesc {
+        meshes: vec![lucent::scene::shapes::uv_sphere(Vec3::ZERO, 1.0, 7, 12, false, 0)],
+        materials: vec![Material::lambert("grey", Vec3::splat(0.5))],
+        ..SceneDesc::default()
+    });
+    let light = Vec3::new(0.8, 0.3, -0.5).normalize();
+    let mut s = Sampler::new(UVec2::new(2, 2), 0, 13);
+    let (mut lit, mut shadowed_plain, mut shadowed_lifted) = (0, 0, 0);
+    for _ in 0..200_000 {
+        let tri = (s.next_1d() * scene.geometry.len() as f32) as u32 % scene.geometry.len() as u32;
+        let b = lucent::math::warp::uniform_triangle(s.next_2d());
+        let surface = scene.surface(&lucent::scene::geometry::Hit { tri, t: 1.0, b });
+        if surface.ns.dot(light) < 0.05 {
+            continue;
+        }
+        lit += 1;
+        for (terminator, count) in [(false, &mut shadowed_plain), (true, &mut shadowed_lifted)] {
+            let o = scene.reflection_origin(&surface, true, terminator, true);
+            *count += scene.geometry.occluded(&Ray { o, d: light, tmax: f32::INFINITY }) as u32;
+        }
+    }
+    let (plain, lifted) = (shadowed_plain as f64 / lit as f64, shadowed_lifted as f64 / lit as f64);
+    assert!(plain > 0.01, "the case is not exercised: {plain:.4} shadowed without the offset");
+    assert!(lifted < 0.1 * plain, "terminator offset: {lifted:.4} shadowed vs {plain:.4} without");
+}

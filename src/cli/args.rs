@@ -2,7 +2,7 @@
 
 use crate::config::ViewFile;
 use crate::film::tonemap::{Display, Tonemap};
-use crate::integrator::{LightSampling, PixelSampling, Settings};
+use crate::integrator::{LightSampling, PixelSampling, Robustness, Settings};
 use crate::scene::camera::Camera;
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use std::path::PathBuf;
@@ -24,7 +24,7 @@ pub enum Command {
     View(ViewArgs),
     /// Render a scene headless to a PNG (tonemapped sRGB) or OpenEXR (linear) file.
     Render(RenderArgs),
-    /// Measure samples/s and rays/s on the built-in Cornell box.
+    /// Measure samples/s and rays/s: kernel specialisation, or robustness mechanisms.
     Bench(BenchArgs),
 }
 
@@ -35,6 +35,29 @@ pub enum Switch {
     On,
     /// Disabled.
     Off,
+}
+
+/// A numerical-robustness mechanism that `--without` can switch off.
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Mechanism {
+    /// The watertight ray/triangle test (falls back to obvhs's Moller-Trumbore test).
+    Watertight,
+    /// Ray origins offset by their floating-point error bound.
+    Offsets,
+    /// The shadow-terminator offset on smooth-shaded meshes.
+    Terminator,
+}
+
+impl Mechanism {
+    /// `robustness` with this mechanism switched off.
+    pub fn disable(self, mut robustness: Robustness) -> Robustness {
+        match self {
+            Mechanism::Watertight => robustness.watertight = false,
+            Mechanism::Offsets => robustness.offset_origins = false,
+            Mechanism::Terminator => robustness.terminator = false,
+        }
+        robustness
+    }
 }
 
 /// Options shared by everything that renders. Each one given overrides the view file.
@@ -82,6 +105,9 @@ pub struct RenderOptions {
     /// Worker threads [default: one per core].
     #[arg(long)]
     pub threads: Option<usize>,
+    /// Switch off robustness mechanisms, to see what they prevent (comma-separated).
+    #[arg(long, value_enum, value_delimiter = ',')]
+    pub without: Vec<Mechanism>,
 }
 
 /// A render setup resolved from a view file and the command line.
@@ -113,6 +139,9 @@ impl RenderOptions {
         s.importance_sampling = self.importance.map_or(s.importance_sampling, |i| i == Switch::On);
         s.light_sampling = self.lights.unwrap_or(s.light_sampling);
         s.firefly_clamp = self.clamp.or(s.firefly_clamp);
+        if !self.without.is_empty() {
+            s.robustness = self.without.iter().fold(Robustness::default(), |r, m| m.disable(r));
+        }
         s.target_spp = target_spp;
         s.validate().map_err(|e| e.to_string())?;
         if self.threads == Some(0) {
@@ -164,13 +193,30 @@ pub struct ViewArgs {
     pub options: RenderOptions,
 }
 
+/// What `lucent bench` measures.
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BenchKind {
+    /// The kernel specialised to the scene's features against the general kernel (Cornell box).
+    Kernel,
+    /// Each robustness mechanism switched off in turn, against all of them on.
+    Robustness,
+}
+
 /// `lucent bench`.
 #[derive(Args, Debug)]
 pub struct BenchArgs {
+    /// What to measure.
+    #[arg(value_enum, default_value = "kernel")]
+    pub kind: BenchKind,
+    /// Scenes for `robustness` (.gltf or .glb) [default: the built-in Cornell box].
+    pub scenes: Vec<PathBuf>,
+    /// Image width and height in pixels.
+    #[arg(long, default_value_t = 256)]
+    pub size: u32,
     /// Samples per pixel per measured run.
     #[arg(long, default_value_t = 16)]
     pub spp: u32,
-    /// Measured runs per kernel (the median is reported).
+    /// Measured runs per variant (the median is reported).
     #[arg(long, default_value_t = 5)]
     pub runs: u32,
     /// Worker threads [default: one per core].

@@ -1,50 +1,113 @@
-//! `lucent bench`: samples/s and rays/s on the built-in Cornell box (256x256, max depth 7),
-//! for the kernel specialised to the scene's features and for the general kernel, measured
-//! alternately in one run so that their ratio is meaningful on a noisy machine.
+//! `lucent bench`: samples/s and rays/s, measured with variants alternating in one run so
+//! that their ratios are meaningful on a noisy machine. `kernel` compares the kernel
+//! specialised to the scene's features with the general one on the Cornell box;
+//! `robustness` measures each numerical-robustness mechanism by switching it off.
 
-use super::args::BenchArgs;
-use crate::integrator::Settings;
-use crate::loader::builtin;
+use super::args::{BenchArgs, BenchKind, Mechanism};
+use super::render::load_scene;
+use crate::integrator::{Robustness, Settings};
 use crate::render::{Job, RenderSession};
 use crate::scene::{Features, Scene};
 use std::sync::Arc;
+
+/// One measured configuration.
+struct Variant {
+    label: String,
+    scene: Arc<Scene>,
+    settings: Settings,
+}
 
 /// Runs `lucent bench`.
 pub fn run(args: &BenchArgs) -> Result<(), String> {
     if args.spp == 0 || args.runs == 0 || args.threads == Some(0) {
         return Err("--spp, --runs and --threads must be at least 1".into());
     }
-    let specialised = Arc::new(Scene::build(builtin::cornell_box()));
-    let mut general = Scene::build(builtin::cornell_box());
-    general.features = Features::ALL;
-    let general = Arc::new(general);
-    let settings =
-        Settings { width: 256, height: 256, max_depth: 7, target_spp: Some(args.spp), ..Settings::default() };
-    println!(
-        "Cornell box 256x256, max depth 7, MIS, {} spp per run, {} runs each, {} threads",
-        args.spp,
-        args.runs,
-        args.threads.map_or_else(|| rayon::current_num_threads().to_string(), |t| t.to_string())
-    );
-    println!("features of the scene: {:?}", specialised.features);
-    let mut results: [Vec<(f64, f64)>; 2] = [Vec::new(), Vec::new()];
+    let settings = Settings {
+        width: args.size,
+        height: args.size,
+        max_depth: 7,
+        target_spp: Some(args.spp),
+        ..Settings::default()
+    };
+    settings.validate().map_err(|e| e.to_string())?;
+    let threads = args.threads.map_or_else(|| rayon::current_num_threads().to_string(), |t| t.to_string());
+    let scenes: Vec<Option<&std::path::Path>> = match args.kind {
+        BenchKind::Kernel if !args.scenes.is_empty() => return Err("bench kernel uses the built-in scene only".into()),
+        _ if args.scenes.is_empty() => vec![None],
+        _ => args.scenes.iter().map(|p| Some(p.as_path())).collect(),
+    };
+    for path in scenes {
+        let scene = Arc::new(load_scene(path)?);
+        println!(
+            "{}: {} triangles, {s}x{s}, max depth 7, MIS, {} spp per run, {} runs each, {threads} threads",
+            scene.name,
+            scene.geometry.len(),
+            args.spp,
+            args.runs,
+            s = args.size
+        );
+        println!("features of the scene: {:?}", scene.features);
+        let variants = match args.kind {
+            BenchKind::Kernel => kernel_variants(&scene, settings),
+            BenchKind::Robustness => robustness_variants(&scene, settings),
+        };
+        measure(&variants, args)?;
+    }
+    Ok(())
+}
+
+fn kernel_variants(scene: &Arc<Scene>, settings: Settings) -> Vec<Variant> {
+    let general = scene.with_edits(scene.materials.clone(), scene.lights.clone());
+    let general = Arc::new(Scene { features: Features::ALL, ..general });
+    vec![
+        Variant { label: "specialised kernel".into(), scene: Arc::clone(scene), settings },
+        Variant { label: "general kernel".into(), scene: general, settings },
+    ]
+}
+
+fn robustness_variants(scene: &Arc<Scene>, settings: Settings) -> Vec<Variant> {
+    let with = |label: String, robustness: Robustness| Variant {
+        label,
+        scene: Arc::clone(scene),
+        settings: Settings { robustness, ..settings },
+    };
+    let mut variants = vec![with("all mechanisms".into(), Robustness::default())];
+    for m in [Mechanism::Watertight, Mechanism::Offsets, Mechanism::Terminator] {
+        variants.push(with(format!("without {m:?}").to_lowercase(), m.disable(Robustness::default())));
+    }
+    let none = Robustness { watertight: false, offset_origins: false, terminator: false };
+    variants.push(with("without any".into(), none));
+    variants
+}
+
+/// Runs every variant `runs` times in turn and prints medians and ratios to the first.
+fn measure(variants: &[Variant], args: &BenchArgs) -> Result<(), String> {
+    let mut results: Vec<Vec<(f64, f64)>> = vec![Vec::new(); variants.len()];
     for _ in 0..args.runs {
-        for (i, scene) in [&specialised, &general].into_iter().enumerate() {
-            let camera = scene.default_camera(1.0);
-            let job = Job { scene: Arc::clone(scene), camera, settings };
-            let session = RenderSession::new(job, args.threads).map_err(|e| e.to_string())?;
-            let snap = session.wait_until_done();
-            results[i].push((snap.samples_per_second(), snap.rays_per_second()));
+        for (v, out) in variants.iter().zip(&mut results) {
+            let camera = v.scene.default_camera(1.0);
+            let job = Job { scene: Arc::clone(&v.scene), camera, settings: v.settings };
+            let snap = RenderSession::new(job, args.threads).map_err(|e| e.to_string())?.wait_until_done();
+            out.push((snap.samples_per_second(), snap.rays_per_second()));
         }
     }
-    let median = |v: &mut Vec<(f64, f64)>| {
-        v.sort_by(|a, b| a.0.total_cmp(&b.0));
-        v[v.len() / 2]
-    };
-    let spec = median(&mut results[0]);
-    let general = median(&mut results[1]);
-    println!("specialised kernel: {:.3} Msamples/s, {:.2} Mrays/s", spec.0 / 1e6, spec.1 / 1e6);
-    println!("general kernel:     {:.3} Msamples/s, {:.2} Mrays/s", general.0 / 1e6, general.1 / 1e6);
-    println!("specialised / general samples/s: {:.3}", spec.0 / general.0);
+    let medians: Vec<(f64, f64)> = results
+        .iter_mut()
+        .map(|r| {
+            r.sort_by(|a, b| a.0.total_cmp(&b.0));
+            r[r.len() / 2]
+        })
+        .collect();
+    let base = medians[0].0;
+    for (v, m) in variants.iter().zip(&medians) {
+        println!(
+            "  {:<22} {:>7.3} Msamples/s {:>6.2} Mrays/s   samples/s ratio to {}: {:.3}",
+            v.label,
+            m.0 / 1e6,
+            m.1 / 1e6,
+            variants[0].label,
+            m.0 / base
+        );
+    }
     Ok(())
 }

@@ -17,7 +17,8 @@ pub enum NanCause {
 }
 
 /// Every cause, in counter order.
-pub const CAUSES: [NanCause; 4] = [NanCause::CameraRay, NanCause::Emission, NanCause::BsdfSample, NanCause::LightSample];
+pub const CAUSES: [NanCause; 4] =
+    [NanCause::CameraRay, NanCause::Emission, NanCause::BsdfSample, NanCause::LightSample];
 
 /// Whether the counters are compiled in.
 pub const ENABLED: bool = cfg!(any(debug_assertions, feature = "nan-causes"));

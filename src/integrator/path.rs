@@ -3,10 +3,10 @@
 //! Monomorphised over the scene's `Features`, so absent effects cost nothing.
 
 use super::nan::{NanCause, check};
-use super::settings::{LightSampling, PixelSampling, Robustness, Settings};
+use super::settings::{LightSampling, PixelSampling, Settings};
 use crate::bsdf::{Bsdf, Strategy};
 use crate::math::{
-    float::{gamma, interpolation_error, offset_ray_origin},
+    float::{interpolation_error, offset_ray_origin},
     frame::Frame,
     sampler::{Sampler, hash3},
     warp,
@@ -16,7 +16,7 @@ use crate::scene::{
     camera::RayGenerator,
     geometry::Ray,
     light::{LightRef, PunctualKind},
-    shading::{bend_normal, terminator_offset},
+    shading::bend_normal,
 };
 use glam::{UVec2, Vec2, Vec3};
 
@@ -154,7 +154,7 @@ fn radiance<const E: bool, const P: bool, const T: bool, const G: bool>(
         let frame = Frame::from_normal(ns);
         let wo = frame.to_local(wo_world);
         let bsdf = material.bsdf::<T, G>(&scene.textures, &scene.images, surface.uv);
-        let origin = reflection_origin(scene, &surface, front, ng, robust);
+        let origin = scene.reflection_origin(&surface, front, robust.terminator, robust.offset_origins);
 
         // Light sampling: one shadow ray towards a light chosen by power.
         if (E || P) && settings.light_sampling != LightSampling::Off {
@@ -189,28 +189,6 @@ fn radiance<const E: bool, const P: bool, const T: bool, const G: bool>(
     PathOutput { radiance, rays }
 }
 
-/// Where rays reflected at a surface point leave from: the point, lifted onto the smooth
-/// surface of its vertex normals by the shadow-terminator offset where that moves it out of
-/// the facet, then pushed past its floating-point error on the side of `ng` (the side the
-/// path arrived from). Reflected rays whose direction is above the shading normal but below
-/// the facet start there too: on a coarse convex mesh they escape, which is what removes
-/// the faceted shadow terminator; elsewhere they hit the facet and count as shadowed.
-fn reflection_origin(scene: &Scene, surface: &Surface, front: bool, ng: Vec3, robust: Robustness) -> Vec3 {
-    let (mut p, mut error) = (surface.p, surface.p_error);
-    if robust.terminator {
-        let normals = scene.geometry.attrs(surface.tri).normals;
-        let normals = if front { normals } else { normals.map(|n| -n) };
-        let lift = terminator_offset(p, surface.b, scene.geometry.positions(surface.tri), &normals);
-        if lift.dot(ng) > 0.0 {
-            // The sum rounds by at most gamma(1) of its magnitude; lift's own rounding only
-            // changes by how much the point is lifted, not the side it ends up on.
-            error += gamma(2) * (p.abs() + lift.abs());
-            p += lift;
-        }
-    }
-    if robust.offset_origins { offset_ray_origin(p, error, ng, ng) } else { p }
-}
-
 /// What light sampling needs to know about the shading point.
 struct Shading<'a> {
     surface: &'a Surface,
@@ -218,7 +196,7 @@ struct Shading<'a> {
     wo: Vec3,
     bsdf: &'a Bsdf,
     strategy: Strategy,
-    /// Origin of shadow rays (see `reflection_origin`).
+    /// Origin of shadow rays (see `Scene::reflection_origin`).
     origin: Vec3,
 }
 

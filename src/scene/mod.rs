@@ -9,12 +9,16 @@ pub mod shading;
 pub mod shapes;
 pub mod texture;
 
-use crate::math::{float::interpolation_error, luminance};
+use crate::math::{
+    float::{gamma, interpolation_error, offset_ray_origin},
+    luminance,
+};
 use camera::Camera;
 use geometry::{Geometry, Hit, TriAttrs};
 use glam::{Vec2, Vec3};
 use light::{LightRef, LightSampler, PunctualLight};
 use material::Material;
+use shading::terminator_offset;
 use std::sync::Arc;
 use texture::{ColorSpace, Image, Texture};
 
@@ -259,6 +263,30 @@ impl Scene {
             tri: hit.tri,
             b,
         }
+    }
+
+    /// Where rays reflected at `surface` leave from, on its front side if `front` (the side
+    /// the path arrived from) and its back side otherwise. With `terminator`, the point is
+    /// first lifted onto the smooth surface of its vertex normals where that moves it out of
+    /// the facet (Hanika 2021); with `offset`, it is then pushed past its floating-point
+    /// error. Reflected directions above the shading normal but below the facet start there
+    /// too: on a coarse convex mesh they escape, which is what removes the faceted shadow
+    /// terminator; elsewhere they hit the facet and count as shadowed.
+    pub fn reflection_origin(&self, surface: &Surface, front: bool, terminator: bool, offset: bool) -> Vec3 {
+        let ng = if front { surface.ng } else { -surface.ng };
+        let (mut p, mut error) = (surface.p, surface.p_error);
+        if terminator {
+            let normals = self.geometry.attrs(surface.tri).normals;
+            let normals = if front { normals } else { normals.map(|n| -n) };
+            let lift = terminator_offset(p, surface.b, self.geometry.positions(surface.tri), &normals);
+            if lift.dot(ng) > 0.0 {
+                // The sum rounds by at most gamma(1) of its magnitude; lift's own rounding
+                // only changes how far the point is lifted, not the side it ends up on.
+                error += gamma(2) * (p.abs() + lift.abs());
+                p += lift;
+            }
+        }
+        if offset { offset_ray_origin(p, error, ng, ng) } else { p }
     }
 
     /// Area of triangle `tri` (BVH order).

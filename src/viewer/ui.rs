@@ -172,6 +172,12 @@ fn estimator(ui: &mut Ui, state: &mut ViewerState) {
         ui.label("seed");
         ui.add(egui::DragValue::new(&mut s.seed));
     });
+    egui::CollapsingHeader::new("Robustness (switch off to see what it prevents)").show(ui, |ui| {
+        let r = &mut s.robustness;
+        ui.checkbox(&mut r.watertight, "watertight triangle test (off: leaks at edges)");
+        ui.checkbox(&mut r.offset_origins, "error-bound ray offsets (off: shadow acne)");
+        ui.checkbox(&mut r.terminator, "shadow-terminator offset (off: faceted terminator)");
+    });
 }
 
 fn camera(ui: &mut Ui, state: &mut ViewerState) {
