@@ -1,10 +1,15 @@
 //! The glTF metallic-roughness BRDF (glTF 2.0 spec Appendix B, with KHR_materials_specular):
-//! mix(dielectric, metal, metallic), where the dielectric is a Fresnel mix of a Lambertian
-//! base under a GGX specular layer, and the metal is GGX with Schlick's conductor Fresnel.
-//! The spec's mix weights the base by 1 - F(v.h), which is not energy conserving at grazing
-//! incidence: a smooth white dielectric reflects up to 1.65 at theta_o = 1.5 rad. Metals
-//! and the base alone never exceed 1 (tests/bsdf_chi2.rs).
+//! mix(dielectric, metal, metallic), where the dielectric is a Lambertian base under a GGX
+//! specular layer, and the metal is GGX with Schlick's conductor Fresnel.
+//!
+//! The spec's `fresnel_mix` weights the base by 1 - F(v.h), which creates energy at grazing
+//! incidence (a smooth white dielectric reflected 1.65 at theta_o = 1.5 rad). The base is
+//! instead weighted by the energy the layer leaves to it, in the reciprocal form of Kelemen
+//! and Szirmay-Kalos (2001): (1 - s E(wo)) (1 - s E(wi)) / (1 - s E_avg), with E the layer's
+//! directional albedo (`albedo.rs`) and s the specular factor. Its albedo is then
+//! s E_c(wo) + base (1 - s E(wo)) <= 1, and it stays symmetric in wo and wi.
 
+use super::albedo::{ggx_albedo, ggx_average_albedo};
 use super::microfacet::{Ggx, reflect};
 use crate::math::{luminance, warp};
 use glam::{Vec2, Vec3};
@@ -54,10 +59,25 @@ impl MetalRough {
         let voh = wo.dot(h);
         let specular = ggx.d(h) * ggx.g2(wo, wi) / (4.0 * wo.z * wi.z);
         let f_d = self.dielectric_fresnel(voh);
-        let diffuse = self.base * FRAC_1_PI;
-        let dielectric = diffuse * (1.0 - self.specular * f_d.max_element()) + self.specular * f_d * specular;
+        let dielectric = self.base * (FRAC_1_PI * self.base_weight(wo.z, wi.z)) + self.specular * f_d * specular;
         let metal = self.metal_fresnel(voh) * specular;
         dielectric.lerp(metal, self.metallic) * wi.z
+    }
+
+    /// Share of the energy the specular layer leaves to the diffuse base, for the pair of
+    /// directions (the reciprocal albedo-scaling weight described above).
+    fn base_weight(&self, mu_o: f32, mu_i: f32) -> f32 {
+        let s = self.specular;
+        if s <= 0.0 {
+            return 1.0;
+        }
+        let roughness = self.alpha.sqrt();
+        let f0 = self.dielectric_f0.max_element();
+        let avg = 1.0 - s * ggx_average_albedo(roughness, f0);
+        if avg <= 1e-6 {
+            return 0.0;
+        }
+        (1.0 - s * ggx_albedo(mu_o, roughness, f0)) * (1.0 - s * ggx_albedo(mu_i, roughness, f0)) / avg
     }
 
     /// Probability of sampling the specular lobe rather than the diffuse one, from the

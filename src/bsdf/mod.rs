@@ -2,6 +2,7 @@
 //! `eval_cos` is f |cos theta_i|, `sample` returns a direction with weight f |cos| / pdf,
 //! `pdf` is the solid-angle density of `sample`. Degenerate samples are rejected here.
 
+pub mod albedo;
 mod diffuse;
 mod metal_rough;
 pub mod microfacet;

@@ -1,0 +1,157 @@
+//! Directional albedo of the single-scattering GGX lobe under Schlick's Fresnel, tabulated
+//! once per process, for layering a diffuse base under it without creating energy.
+//!
+//! With F = f0 + (1 - f0) (1 - v.h)^5, the albedo E(mu, alpha, f0) is linear in f0:
+//! E = f0 (A - B) + B, with A the albedo for F = 1 and B the albedo for F = (1 - v.h)^5.
+//! Both are integrated by stratified VNDF sampling, where f cos / pdf = F G2 / G1.
+
+use super::microfacet::{Ggx, reflect};
+use glam::{Vec2, Vec3};
+use std::sync::OnceLock;
+
+/// Table resolution along sqrt(cos theta_o) and along roughness (sqrt alpha). The square
+/// root puts nodes close together at grazing angles, where Fresnel and masking change fast
+/// and linear interpolation between sparse nodes would underestimate the layer's albedo.
+const N: usize = 64;
+/// Strata per axis of the quadrature in each table cell.
+const STRATA: usize = 24;
+/// Smallest cos theta_o in the table (grazing rows are clamped to it).
+const MU_MIN: f32 = 1e-3;
+
+/// The A and B tables, and their cosine-weighted hemispherical averages per roughness.
+struct Tables {
+    a: [[f32; N]; N],
+    b: [[f32; N]; N],
+    a_avg: [f32; N],
+    b_avg: [f32; N],
+}
+
+fn mu_at(i: usize) -> f32 {
+    (i as f32 / (N - 1) as f32).powi(2).max(MU_MIN)
+}
+
+fn roughness_at(j: usize) -> f32 {
+    j as f32 / (N - 1) as f32
+}
+
+fn tables() -> &'static Tables {
+    static TABLES: OnceLock<Tables> = OnceLock::new();
+    TABLES.get_or_init(|| {
+        let mut t = Tables { a: [[0.0; N]; N], b: [[0.0; N]; N], a_avg: [0.0; N], b_avg: [0.0; N] };
+        for j in 0..N {
+            let r = roughness_at(j);
+            let ggx = Ggx { alpha: (r * r).max(crate::scene::material::MIN_ALPHA) };
+            for i in 0..N {
+                let mu = mu_at(i);
+                let wo = Vec3::new((1.0 - mu * mu).sqrt(), 0.0, mu);
+                let (mut a, mut b) = (0.0f64, 0.0f64);
+                for k in 0..STRATA * STRATA {
+                    let u = Vec2::new((k % STRATA) as f32 + 0.5, (k / STRATA) as f32 + 0.5) / STRATA as f32;
+                    let h = ggx.sample_visible_normal(wo, u);
+                    let wi = reflect(wo, h);
+                    if wi.z <= 0.0 {
+                        continue;
+                    }
+                    let w = (ggx.g2(wo, wi) / ggx.g1(wo)) as f64;
+                    a += w;
+                    b += w * (1.0 - wo.dot(h).clamp(0.0, 1.0) as f64).powi(5);
+                }
+                let n = (STRATA * STRATA) as f64;
+                t.a[j][i] = (a / n) as f32;
+                t.b[j][i] = (b / n) as f32;
+            }
+            // E_avg = 2 int_0^1 E(mu) mu dmu = 4 int_0^1 E(x^2) x^3 dx, integrated exactly for
+            // the interpolant (linear in x between nodes), so that the base's weight integrates
+            // to exactly the energy the layer leaves, whatever the tables' own error.
+            let avg = |row: &[f32; N]| {
+                let h = 1.0 / (N - 1) as f64;
+                let mut s = 0.0;
+                for i in 0..N - 1 {
+                    let (x0, x1) = (i as f64 * h, (i + 1) as f64 * h);
+                    let (e0, e1) = (row[i] as f64, row[i + 1] as f64);
+                    let slope = (e1 - e0) / h;
+                    // int_{x0}^{x1} (e0 + slope (x - x0)) 4 x^3 dx
+                    let c = e0 - slope * x0;
+                    s += c * (x1.powi(4) - x0.powi(4)) + slope * 0.8 * (x1.powi(5) - x0.powi(5));
+                }
+                s as f32
+            };
+            t.a_avg[j] = avg(&t.a[j]);
+            t.b_avg[j] = avg(&t.b[j]);
+        }
+        t
+    })
+}
+
+/// Linear interpolation weights of `x` in [0, 1] on an N-point grid.
+fn cell(x: f32) -> (usize, f32) {
+    let s = x.clamp(0.0, 1.0) * (N - 1) as f32;
+    let i = (s as usize).min(N - 2);
+    (i, s - i as f32)
+}
+
+/// Albedo of the GGX lobe with Fresnel reflectance f0 (scalar) at cos theta_o = `mu`, for
+/// perceptual roughness `roughness` (alpha = roughness^2).
+pub fn ggx_albedo(mu: f32, roughness: f32, f0: f32) -> f32 {
+    let t = tables();
+    let (i, fi) = cell(mu.max(0.0).sqrt());
+    let (j, fj) = cell(roughness);
+    let lerp2 = |m: &[[f32; N]; N]| {
+        let r0 = m[j][i] + (m[j][i + 1] - m[j][i]) * fi;
+        let r1 = m[j + 1][i] + (m[j + 1][i + 1] - m[j + 1][i]) * fi;
+        r0 + (r1 - r0) * fj
+    };
+    let (a, b) = (lerp2(&t.a), lerp2(&t.b));
+    (f0 * (a - b) + b).clamp(0.0, 1.0)
+}
+
+/// Cosine-weighted hemispherical average of `ggx_albedo` over mu: 2 int E(mu) mu dmu.
+pub fn ggx_average_albedo(roughness: f32, f0: f32) -> f32 {
+    let t = tables();
+    let (j, fj) = cell(roughness);
+    let a = t.a_avg[j] + (t.a_avg[j + 1] - t.a_avg[j]) * fj;
+    let b = t.b_avg[j] + (t.b_avg[j + 1] - t.b_avg[j]) * fj;
+    (f0 * (a - b) + b).clamp(0.0, 1.0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// E by a midpoint rule over the incident hemisphere, independent of VNDF sampling.
+    fn quadrature(mu: f32, roughness: f32, f0: f32) -> f32 {
+        let ggx = Ggx { alpha: roughness * roughness };
+        let wo = Vec3::new((1.0 - mu * mu).sqrt(), 0.0, mu);
+        let n = 300;
+        let mut sum = 0.0f64;
+        for i in 0..n {
+            let cos_t = (i as f32 + 0.5) / n as f32;
+            let sin_t = (1.0 - cos_t * cos_t).sqrt();
+            for j in 0..n {
+                let phi = std::f32::consts::TAU * (j as f32 + 0.5) / n as f32;
+                let wi = Vec3::new(sin_t * phi.cos(), sin_t * phi.sin(), cos_t);
+                let h = (wo + wi).normalize();
+                let f = f0 + (1.0 - f0) * (1.0 - wo.dot(h)).powi(5);
+                let value = f * ggx.d(h) * ggx.g2(wo, wi) / (4.0 * mu);
+                sum += value as f64 / (n * n) as f64 * std::f64::consts::TAU;
+            }
+        }
+        sum as f32
+    }
+
+    #[test]
+    fn the_tables_match_direct_integration_between_their_nodes() {
+        for (mu, roughness, f0) in [(0.5f32, 0.5f32, 0.04f32), (0.9, 0.8, 1.0), (0.2, 0.3, 0.5), (1.0, 1.0, 1.0)] {
+            let (table, direct) = (ggx_albedo(mu, roughness, f0), quadrature(mu, roughness, f0));
+            assert!((table - direct).abs() < 5e-3, "E({mu}, {roughness}, {f0}): table {table}, direct {direct}");
+        }
+    }
+
+    #[test]
+    fn a_smooth_mirror_reflects_everything_and_f0_zero_only_at_grazing_angles() {
+        assert!((ggx_albedo(0.7, 0.0, 1.0) - 1.0).abs() < 1e-3);
+        assert!((ggx_average_albedo(0.0, 1.0) - 1.0).abs() < 2e-3);
+        assert!(ggx_albedo(1.0, 0.5, 0.0) < 0.01);
+        assert!((ggx_albedo(0.05, 0.0, 0.0) - 0.95f32.powi(5)).abs() < 0.01);
+    }
+}
