@@ -138,22 +138,24 @@ fn tiny_bright_grazing_coincident_and_degenerate_emitters_stay_finite() {
 }
 
 #[test]
-fn nan_and_infinite_vertices_are_dropped_with_a_warning() {
+fn nan_infinite_and_huge_vertices_are_dropped_with_a_warning() {
     let good = [Vec3::ZERO, Vec3::X, Vec3::Y];
     let mut positions = good.to_vec();
-    positions.extend([Vec3::new(f32::NAN, 0.0, 0.0), Vec3::new(0.0, f32::INFINITY, 0.0)]);
+    positions.extend([Vec3::new(f32::NAN, 0.0, 0.0), Vec3::new(0.0, f32::INFINITY, 0.0), Vec3::splat(-1.7e38)]);
     let desc = SceneDesc {
         meshes: vec![MeshDesc {
             name: "bad".into(),
             positions,
-            indices: vec![0, 1, 2, 0, 1, 3, 4, 1, 2, 0, 1, 9],
+            indices: vec![0, 1, 2, 0, 1, 3, 4, 1, 2, 0, 1, 9, 0, 5, 1],
             ..MeshDesc::default()
         }],
         ..SceneDesc::default()
     };
     let scene = Scene::build(desc);
     assert_eq!(scene.geometry.len(), 1);
-    assert!(scene.warnings.iter().any(|w| w.contains("dropped 3 triangles with missing, NaN or infinite")));
+    assert!(
+        scene.warnings.iter().any(|w| w.contains("dropped 4 triangles with missing, NaN, infinite or out-of-range"))
+    );
     assert!(scene.bounds.0.is_finite() && scene.bounds.1.is_finite());
 }
 

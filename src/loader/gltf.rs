@@ -48,7 +48,9 @@ fn import(bytes: &[u8], base: Option<&Path>) -> Result<(Document, Vec<buffer::Da
     let gltf::Gltf { document, blob } = gltf::Gltf::from_slice_without_validation(bytes).map_err(|e| describe(&e))?;
     check_position_accessors(&document)?;
     let document = Document::from_json(document.into_json()).map_err(|e| describe(&e))?;
+    check_image_sources(&document)?;
     let buffers = gltf::import_buffers(&document, base, blob).map_err(|e| describe(&e))?;
+    check_buffer_views(&document, &buffers)?;
     let images = gltf::import_images(&document, base, &buffers).map_err(|e| describe(&e))?;
     Ok((document, buffers, images))
 }
@@ -68,6 +70,31 @@ fn check_position_accessors(document: &Document) -> Result<(), String> {
                     index.value()
                 ));
             }
+        }
+    }
+    Ok(())
+}
+
+/// Rejects an image with neither a uri nor a bufferView, or a bufferView without a
+/// mimeType (both required by the spec): gltf 1.4.1 does not validate them and unwraps.
+fn check_image_sources(document: &Document) -> Result<(), String> {
+    for (i, image) in document.as_json().images.iter().enumerate() {
+        match (&image.uri, &image.buffer_view, &image.mime_type) {
+            (None, None, _) => return Err(format!("invalid glTF: images[{i}] has neither uri nor bufferView")),
+            (_, Some(_), None) => return Err(format!("invalid glTF: images[{i}] has a bufferView but no mimeType")),
+            _ => {}
+        }
+    }
+    Ok(())
+}
+
+/// Rejects a bufferView reaching past the end of its buffer's data: gltf 1.4.1 slices
+/// image data with it unchecked and would panic.
+fn check_buffer_views(document: &Document, buffers: &[buffer::Data]) -> Result<(), String> {
+    for view in document.views() {
+        let len = buffers.get(view.buffer().index()).map_or(0, |b| b.len());
+        if view.offset().checked_add(view.length()).is_none_or(|end| end > len) {
+            return Err(format!("invalid glTF: bufferViews[{}] reaches past the end of its buffer", view.index()));
         }
     }
     Ok(())
@@ -270,7 +297,13 @@ fn convert_material(m: &gltf::Material, warnings: &mut Warnings) -> Material {
 /// Checks that an accessor's bytes lie inside its buffer, so reading cannot go out of range.
 fn check_accessor(a: &gltf::Accessor, buffers: &[buffer::Data]) -> Result<(), String> {
     let check_view = |view: &gltf::buffer::View, offset: usize, count: usize, size: usize| {
-        let stride = view.stride().unwrap_or(size).max(size);
+        let stride = view.stride().unwrap_or(size);
+        if stride < size {
+            return Err(format!(
+                "accessor {}: byteStride {stride} is smaller than its elements ({size} bytes)",
+                a.index()
+            ));
+        }
         let needed = if count == 0 { 0 } else { offset + stride * (count - 1) + size };
         let buffer_len = buffers.get(view.buffer().index()).map_or(0, |b| b.len());
         if needed > view.length() || view.offset() + view.length() > buffer_len {
@@ -289,6 +322,25 @@ fn check_accessor(a: &gltf::Accessor, buffers: &[buffer::Data]) -> Result<(), St
     Ok(())
 }
 
+/// Rejects an attribute (or, for `Weights(u32::MAX)`, the indices) whose accessor type is
+/// not one the spec allows for it: gltf 1.4.1 reads it as the allowed type regardless and
+/// asserts on the length.
+fn check_attribute_type(semantic: &Semantic, a: &gltf::Accessor) -> Result<(), String> {
+    use gltf::accessor::{DataType as T, Dimensions as D};
+    let (dims, ty) = (a.dimensions(), a.data_type());
+    let ok = match semantic {
+        Semantic::Positions | Semantic::Normals => dims == D::Vec3 && ty == T::F32,
+        Semantic::TexCoords(_) => dims == D::Vec2 && matches!(ty, T::F32 | T::U8 | T::U16),
+        Semantic::Weights(u32::MAX) => dims == D::Scalar && matches!(ty, T::U8 | T::U16 | T::U32),
+        _ => true,
+    };
+    if ok {
+        return Ok(());
+    }
+    let what = if matches!(semantic, Semantic::Weights(u32::MAX)) { "indices".into() } else { semantic.to_string() };
+    Err(format!("invalid glTF: accessor {} is {dims:?} of {ty:?}, which {what} cannot be", a.index()))
+}
+
 fn convert_primitive(
     prim: &gltf::Primitive,
     buffers: &[buffer::Data],
@@ -301,11 +353,13 @@ fn convert_primitive(
         warnings.add(format!("primitives of mode {mode:?} are not rendered"));
         return Ok(None);
     }
-    for (_, accessor) in prim.attributes() {
+    for (semantic, accessor) in prim.attributes() {
         check_accessor(&accessor, buffers)?;
+        check_attribute_type(&semantic, &accessor)?;
     }
     if let Some(i) = prim.indices() {
         check_accessor(&i, buffers)?;
+        check_attribute_type(&Semantic::Weights(u32::MAX), &i)?;
     }
     let reader = prim.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
     let Some(positions) = reader.read_positions() else {

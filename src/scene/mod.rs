@@ -41,6 +41,10 @@ impl Features {
     pub const ALL: Self = Self { emissive: true, punctual: true, textures: true, glossy: true };
 }
 
+/// Largest vertex coordinate magnitude accepted: products of two coordinates (edge cross
+/// products, squared distances) stay finite in f32, and the BVH's bounds stay meaningful.
+pub const MAX_COORDINATE: f32 = 1e18;
+
 /// A triangle mesh in world space, as a loader produces it.
 #[derive(Clone, Debug, Default)]
 pub struct MeshDesc {
@@ -143,7 +147,7 @@ impl Scene {
             for tri in mesh.indices.chunks_exact(3) {
                 let idx = [tri[0] as usize, tri[1] as usize, tri[2] as usize];
                 let p = idx.map(|i| mesh.positions.get(i).copied().unwrap_or(Vec3::NAN));
-                if !p.iter().all(|v| v.is_finite()) {
+                if !p.iter().all(|v| v.is_finite() && v.abs().max_element() <= MAX_COORDINATE) {
                     dropped_bad += 1;
                     continue;
                 }
@@ -169,7 +173,9 @@ impl Scene {
             }
         }
         if dropped_bad > 0 {
-            warnings.push(format!("dropped {dropped_bad} triangles with missing, NaN or infinite vertices"));
+            warnings.push(format!(
+                "dropped {dropped_bad} triangles with missing, NaN, infinite or out-of-range (beyond 1e18) vertices"
+            ));
         }
         if dropped_degenerate > 0 {
             warnings.push(format!("dropped {dropped_degenerate} degenerate (zero-area) triangles"));
