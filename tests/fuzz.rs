@@ -52,7 +52,7 @@ fn split_glb(bytes: &[u8]) -> Option<(Value, Vec<u8>)> {
 /// A .glb with the given JSON chunk and the remaining chunks unchanged.
 fn join_glb(json: &Value, rest: &[u8]) -> Vec<u8> {
     let mut text = serde_json::to_vec(json).unwrap();
-    while text.len() % 4 != 0 {
+    while !text.len().is_multiple_of(4) {
         text.push(b' ');
     }
     let total = 12 + 8 + text.len() + rest.len();
