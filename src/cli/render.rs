@@ -80,6 +80,10 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     };
     write_image(&args.out, snap.width, snap.height, &snap.mean, &resolved.display).map_err(|e| e.to_string())?;
     println!("{}; wrote {}", snap.summary(&scene.name), args.out.display());
+    let causes = crate::integrator::nan::report();
+    if !causes.is_empty() {
+        eprintln!("warning: non-finite values by cause: {causes}");
+    }
     Ok(())
 }
 

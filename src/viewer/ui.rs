@@ -67,6 +67,10 @@ fn status(ui: &mut Ui, state: &ViewerState, ui_state: &UiState) {
             ));
             let noise = s.relative_error().map_or("-".into(), |e| format!("{:.2}%", 100.0 * e));
             ui.label(format!("noise (rel. std. error) {noise}, NaN/Inf dropped {}", s.rejected));
+            let causes = crate::integrator::nan::report();
+            if !causes.is_empty() {
+                ui.colored_label(egui::Color32::LIGHT_RED, format!("non-finite values by cause: {causes}"));
+            }
         }
         None => {
             ui.label("first pass...");
