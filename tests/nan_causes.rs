@@ -28,7 +28,7 @@ fn render_with(edit: impl Fn(&mut Vec<lucent::scene::material::Material>)) -> u3
 
 #[test]
 fn each_planted_nan_is_counted_under_its_cause() {
-    assert!(nan::ENABLED, "run the tests with --features nan-causes (the README's test command does)");
+    assert!(nan::enabled(), "run the tests with --features nan-causes (the README's test command does)");
     let before = nan::counts();
     assert!(before.iter().all(|(_, n)| *n == 0), "{before:?}");
 

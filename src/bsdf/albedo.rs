@@ -14,7 +14,7 @@ use std::sync::OnceLock;
 /// and linear interpolation between sparse nodes would underestimate the layer's albedo.
 const N: usize = 64;
 /// Strata per axis of the quadrature in each table cell.
-const STRATA: usize = 24;
+const STRATA: usize = 16;
 /// Smallest cos theta_o in the table (grazing rows are clamped to it).
 const MU_MIN: f32 = 1e-3;
 

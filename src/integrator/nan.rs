@@ -21,12 +21,14 @@ pub const CAUSES: [NanCause; 4] =
     [NanCause::CameraRay, NanCause::Emission, NanCause::BsdfSample, NanCause::LightSample];
 
 /// Whether the counters are compiled in.
-pub const ENABLED: bool = cfg!(any(debug_assertions, feature = "nan-causes"));
+pub fn enabled() -> bool {
+    cfg!(any(debug_assertions, feature = "nan-causes"))
+}
 
 #[cfg(any(debug_assertions, feature = "nan-causes"))]
 static COUNTS: [std::sync::atomic::AtomicU64; 4] = [const { std::sync::atomic::AtomicU64::new(0) }; 4];
 
-/// Counts `v` under `cause` if any component is NaN or infinite (no-op unless `ENABLED`).
+/// Counts `v` under `cause` if any component is NaN or infinite (no-op unless `enabled()`).
 #[inline(always)]
 pub fn check(cause: NanCause, v: Vec3) {
     #[cfg(any(debug_assertions, feature = "nan-causes"))]
@@ -37,7 +39,7 @@ pub fn check(cause: NanCause, v: Vec3) {
     let _ = (cause, v);
 }
 
-/// Non-finite values seen so far in this process, per cause (all zero unless `ENABLED`).
+/// Non-finite values seen so far in this process, per cause (all zero unless `enabled()`).
 pub fn counts() -> [(NanCause, u64); 4] {
     #[cfg(any(debug_assertions, feature = "nan-causes"))]
     return CAUSES.map(|c| (c, COUNTS[c as usize].load(std::sync::atomic::Ordering::Relaxed)));
@@ -45,7 +47,7 @@ pub fn counts() -> [(NanCause, u64); 4] {
     CAUSES.map(|c| (c, 0))
 }
 
-/// "cause: n" for every cause seen, comma-separated; empty if none or not `ENABLED`.
+/// "cause: n" for every cause seen, comma-separated; empty if none or not `enabled()`.
 pub fn report() -> String {
     let seen: Vec<String> = counts().iter().filter(|(_, n)| *n > 0).map(|(c, n)| format!("{c:?}: {n}")).collect();
     seen.join(", ")

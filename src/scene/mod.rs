@@ -237,6 +237,10 @@ impl Scene {
             textures: used.iter().any(|m| m.is_textured()),
             glossy: used.iter().any(|m| m.is_glossy()),
         };
+        if self.features.glossy {
+            // Tabulate the GGX albedos here (on the loading thread), not in the first sample.
+            crate::bsdf::albedo::ggx_albedo(1.0, 1.0, 0.0);
+        }
     }
 
     /// The file's first camera, or one that frames the scene's bounds.
@@ -281,9 +285,10 @@ impl Scene {
     pub fn reflection_origin(&self, surface: &Surface, front: bool, terminator: bool, offset: bool) -> Vec3 {
         let ng = if front { surface.ng } else { -surface.ng };
         let (mut p, mut error) = (surface.p, surface.p_error);
-        if terminator {
-            let normals = self.geometry.attrs(surface.tri).normals;
-            let normals = if front { normals } else { normals.map(|n| -n) };
+        let attrs = self.geometry.attrs(surface.tri);
+        // Flat triangles (every vertex normal is the facet's) have nothing to lift.
+        if terminator && attrs.normals != [attrs.ng; 3] {
+            let normals = if front { attrs.normals } else { attrs.normals.map(|n| -n) };
             let lift = terminator_offset(p, surface.b, self.geometry.positions(surface.tri), &normals);
             if lift.dot(ng) > 0.0 {
                 // The sum rounds by at most gamma(1) of its magnitude; lift's own rounding
