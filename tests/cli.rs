@@ -73,6 +73,7 @@ fn bad_input_gives_one_line_errors_and_no_file() {
     fails_in_one_line(&["render", "--width", "0", "--out", o], "image size", &out);
     fails_in_one_line(&["render", "--time", "-1", "--out", o], "--time", &out);
     fails_in_one_line(&["render", "--clamp", "-2", "--out", o], "firefly clamp", &out);
+    fails_in_one_line(&["render", "--without", "epsilons", "--out", o], "epsilons", &out);
     fails_in_one_line(&["render", "--out", dir.join("x.jpg").to_str().unwrap()], ".png or .exr", &dir.join("x.jpg"));
     let unwritable = dir.join("missing-dir/x.png");
     fails_in_one_line(&["render", "--out", unwritable.to_str().unwrap()], "cannot write", &unwritable);
@@ -109,4 +110,39 @@ fn a_saved_view_renders_headless_and_options_override_it() {
         "v.toml",
         &clean,
     );
+}
+
+#[test]
+fn bench_robustness_measures_every_mechanism_against_all_on() {
+    let o = lucent(&["bench", "robustness", "--runs", "1", "--spp", "1", "--size", "16"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    for label in ["all mechanisms", "without watertight", "without offsets", "without terminator", "without any"] {
+        let line = stdout.lines().find(|l| l.contains(label)).unwrap_or_else(|| panic!("{label} missing: {stdout}"));
+        let ratio: f64 = line.rsplit(' ').next().unwrap().parse().unwrap();
+        assert!(ratio > 0.0 && ratio.is_finite(), "{line}");
+    }
+    let o = lucent(&["bench", "kernel", "scene.glb"]);
+    assert!(!o.status.success() && stderr(&o).contains("built-in scene only"), "{}", stderr(&o));
+}
+
+#[test]
+fn switching_the_terminator_offset_off_changes_a_smooth_scene_only() {
+    // The Cornell box is flat: no lift, the same image. The coarse sphere changes.
+    let dir = out_dir("without");
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/docs/scenes/terminator.gltf");
+    for (name, args) in [("cornell", vec![]), ("sphere", vec![scene])] {
+        let mut images = Vec::new();
+        for without in [None, Some("terminator")] {
+            let out = dir.join(format!("{name}-{}.exr", without.is_some()));
+            let mut a = vec!["render", "--spp", "2", "--width", "48", "--height", "32"];
+            a.extend(&args);
+            a.extend(without.map_or(vec![], |w| vec!["--without", w]));
+            a.extend(["--out", out.to_str().unwrap()]);
+            let o = lucent(&a);
+            assert!(o.status.success(), "{}", stderr(&o));
+            images.push(image::open(&out).unwrap().into_rgb32f().into_raw());
+        }
+        assert_eq!(images[0] == images[1], name == "cornell", "{name}");
+    }
 }

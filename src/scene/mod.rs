@@ -45,6 +45,10 @@ impl Features {
 /// products, squared distances) stay finite in f32, and the BVH's bounds stay meaningful.
 pub const MAX_COORDINATE: f32 = 1e18;
 
+/// Cosine of 0.1 degree: vertex normals closer than this to their facet's normal are the
+/// facet's normal up to rounding.
+const FLAT_COS: f32 = 0.999_998_5;
+
 /// A triangle mesh in world space, as a loader produces it.
 #[derive(Clone, Debug, Default)]
 pub struct MeshDesc {
@@ -160,7 +164,9 @@ impl Scene {
                 let normals = match &mesh.normals {
                     Some(n) => idx.map(|i| {
                         let n = n.get(i).map_or(Vec3::ZERO, |n| n.normalize_or_zero());
-                        if n == Vec3::ZERO || !n.is_finite() { ng } else { n }
+                        // Normals within 0.1 degree of the facet's are snapped to it, so
+                        // that flat triangles are recognised as flat (no terminator lift).
+                        if n == Vec3::ZERO || !n.is_finite() || n.dot(ng) > FLAT_COS { ng } else { n }
                     }),
                     None => [ng; 3],
                 };
