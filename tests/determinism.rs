@@ -4,7 +4,7 @@
 
 mod common;
 
-use lucent::integrator::{LightSampling, PixelSampling, Settings};
+use lucent::integrator::{LightSampling, PixelSampling, SamplerKind, Settings};
 use lucent::loader::builtin;
 use lucent::scene::{Features, Scene};
 use std::sync::Arc;
@@ -17,12 +17,18 @@ fn settings(seed: u64) -> Settings {
 fn images_are_bit_identical_with_one_and_many_threads() {
     let scene = Arc::new(Scene::build(builtin::cornell_box()));
     let camera = scene.default_camera(48.0 / 40.0);
-    for pixel_sampling in [PixelSampling::Random, PixelSampling::Stratified, PixelSampling::Grid] {
-        let s = Settings { pixel_sampling, strata: 3, ..settings(5) };
+    let variants = [
+        (PixelSampling::Random, SamplerKind::Independent),
+        (PixelSampling::Stratified, SamplerKind::Independent),
+        (PixelSampling::Grid, SamplerKind::Independent),
+        (PixelSampling::Random, SamplerKind::Sobol),
+    ];
+    for (pixel_sampling, sampler) in variants {
+        let s = Settings { pixel_sampling, sampler, strata: 3, ..settings(5) };
         let one = common::render(&scene, camera, s, Some(1));
         let many = common::render(&scene, camera, s, Some(3));
         assert_eq!(one.spp, 12);
-        assert!(one.mean == many.mean, "{pixel_sampling:?}: 1 vs 3 threads differ");
+        assert!(one.mean == many.mean, "{pixel_sampling:?}, {sampler:?}: 1 vs 3 threads differ");
         assert!(one.variance == many.variance);
     }
     let other_seed = common::render(&scene, camera, settings(6), Some(2));

@@ -2,7 +2,7 @@
 
 use crate::config::ViewFile;
 use crate::film::tonemap::{Display, Tonemap};
-use crate::integrator::{LightSampling, PixelSampling, Robustness, Settings};
+use crate::integrator::{LightSampling, PixelSampling, Robustness, SamplerKind, Settings};
 use crate::scene::camera::Camera;
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use std::path::PathBuf;
@@ -93,6 +93,9 @@ pub struct RenderOptions {
     /// Light sampling strategy [default: mis].
     #[arg(long, value_enum)]
     pub lights: Option<LightSampling>,
+    /// Sequence of the sample numbers: independent, or Owen-scrambled Sobol [default: independent].
+    #[arg(long, value_enum)]
+    pub sampler: Option<SamplerKind>,
     /// Firefly clamp on a sample's largest component (biased; off unless given).
     #[arg(long, allow_negative_numbers = true)]
     pub clamp: Option<f32>,
@@ -138,6 +141,7 @@ impl RenderOptions {
         s.pixel_sampling = self.pixel_sampling.unwrap_or(s.pixel_sampling);
         s.importance_sampling = self.importance.map_or(s.importance_sampling, |i| i == Switch::On);
         s.light_sampling = self.lights.unwrap_or(s.light_sampling);
+        s.sampler = self.sampler.unwrap_or(s.sampler);
         s.firefly_clamp = self.clamp.or(s.firefly_clamp);
         if !self.without.is_empty() {
             s.robustness = self.without.iter().fold(Robustness::default(), |r, m| m.disable(r));

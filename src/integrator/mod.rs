@@ -5,4 +5,4 @@ pub mod path;
 pub mod settings;
 
 pub use path::{PathOutput, SampleFn, kernel};
-pub use settings::{LightSampling, PixelSampling, Robustness, Settings};
+pub use settings::{LightSampling, PixelSampling, Robustness, SamplerKind, Settings};

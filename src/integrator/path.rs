@@ -79,7 +79,7 @@ fn sample_pixel<const E: bool, const P: bool, const T: bool, const G: bool>(
     pixel: UVec2,
     index: u64,
 ) -> PathOutput {
-    let mut sampler = Sampler::new(pixel, index, settings.seed);
+    let mut sampler = Sampler::of_kind(settings.sampler, pixel, index, settings.seed);
     let film = pixel.as_vec2() + pixel_offset(settings, pixel, index, &mut sampler);
     let ray = camera.ray(film);
     check(NanCause::CameraRay, ray.o + ray.d);

@@ -1,5 +1,6 @@
 //! Render settings: a plain, comparable struct; any change restarts accumulation.
 
+pub use crate::math::sampler::SamplerKind;
 use serde::{Deserialize, Serialize};
 use std::fmt;
 
@@ -81,6 +82,8 @@ pub struct Settings {
     pub target_spp: Option<u32>,
     /// Numerical-robustness mechanisms.
     pub robustness: Robustness,
+    /// Sequence the pixel samples draw from.
+    pub sampler: SamplerKind,
 }
 
 impl Default for Settings {
@@ -98,6 +101,7 @@ impl Default for Settings {
             firefly_clamp: None,
             target_spp: None,
             robustness: Robustness::default(),
+            sampler: SamplerKind::default(),
         }
     }
 }

@@ -3,7 +3,7 @@
 
 use super::state::ViewerState;
 use crate::film::tonemap::Tonemap;
-use crate::integrator::{LightSampling, PixelSampling};
+use crate::integrator::{LightSampling, PixelSampling, SamplerKind};
 use crate::render::Snapshot;
 use egui::{Color32, Key, PointerButton, Rect, Sense, Ui, pos2};
 use glam::{UVec2, Vec2, Vec3};
@@ -140,6 +140,10 @@ fn estimator(ui: &mut Ui, state: &mut ViewerState) {
         ui.selectable_value(&mut s.light_sampling, LightSampling::Off, "Off");
         ui.selectable_value(&mut s.light_sampling, LightSampling::Explicit, "Explicit");
         ui.selectable_value(&mut s.light_sampling, LightSampling::Mis, "Mis");
+    });
+    egui::ComboBox::from_label("sampler").selected_text(format!("{:?}", s.sampler)).show_ui(ui, |ui| {
+        ui.selectable_value(&mut s.sampler, SamplerKind::Independent, "Independent");
+        ui.selectable_value(&mut s.sampler, SamplerKind::Sobol, "Sobol (Owen-scrambled)");
     });
     egui::ComboBox::from_label("integrator").selected_text("path tracing").show_ui(ui, |ui| {
         let _ = ui.selectable_label(true, "path tracing");
