@@ -74,6 +74,8 @@ fn bad_input_gives_one_line_errors_and_no_file() {
     fails_in_one_line(&["render", "--time", "-1", "--out", o], "--time", &out);
     fails_in_one_line(&["render", "--clamp", "-2", "--out", o], "firefly clamp", &out);
     fails_in_one_line(&["render", "--without", "epsilons", "--out", o], "epsilons", &out);
+    let drt = ["render", "--integrator", "distribution", "--branching", "64", "--max-depth", "4", "--out", o];
+    fails_in_one_line(&drt, "--allow-expensive", &out);
     fails_in_one_line(&["render", "--out", dir.join("x.jpg").to_str().unwrap()], ".png or .exr", &dir.join("x.jpg"));
     let unwritable = dir.join("missing-dir/x.png");
     fails_in_one_line(&["render", "--out", unwritable.to_str().unwrap()], "cannot write", &unwritable);
@@ -145,4 +147,15 @@ fn switching_the_terminator_offset_off_changes_a_smooth_scene_only() {
         }
         assert_eq!(images[0] == images[1], name == "cornell", "{name}");
     }
+}
+
+#[test]
+fn distribution_ray_tracing_states_its_cost_before_it_starts() {
+    let out = out_dir("drt").join("drt.png");
+    let args = ["--integrator", "distribution", "--branching", "2", "--max-depth", "2", "--spp", "3"];
+    let o =
+        lucent(&[&["render"][..], &args, &["--width", "8", "--height", "8", "--out", out.to_str().unwrap()]].concat());
+    assert!(o.status.success(), "{}", stderr(&o));
+    // 1 + 2 + 4 rays, plus a shadow ray at each of the 1 + 2 hits below the last depth.
+    assert!(stderr(&o).contains("up to 1.000e1 rays per sample, 3.000e1 per pixel at 3 spp"), "{}", stderr(&o));
 }

@@ -2,7 +2,7 @@
 
 use crate::config::ViewFile;
 use crate::film::tonemap::{Display, Tonemap};
-use crate::integrator::{LightSampling, PixelSampling, Robustness, SamplerKind, Settings};
+use crate::integrator::{Directions, Integrator, LightSampling, PixelSampling, Robustness, SamplerKind, Settings};
 use crate::scene::camera::Camera;
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use std::path::PathBuf;
@@ -93,6 +93,18 @@ pub struct RenderOptions {
     /// Light sampling strategy [default: mis].
     #[arg(long, value_enum)]
     pub lights: Option<LightSampling>,
+    /// Estimator: path tracing, or distribution ray tracing (branching at every hit) [default: path].
+    #[arg(long, value_enum)]
+    pub integrator: Option<Integrator>,
+    /// Directions per hit for distribution ray tracing [default: 8].
+    #[arg(long)]
+    pub branching: Option<u32>,
+    /// How distribution ray tracing chooses directions [default: stratified].
+    #[arg(long, value_enum)]
+    pub directions: Option<Directions>,
+    /// Let distribution ray tracing exceed its budget of rays per sample.
+    #[arg(long)]
+    pub allow_expensive: bool,
     /// Sequence of the sample numbers: independent, or Owen-scrambled Sobol [default: independent].
     #[arg(long, value_enum)]
     pub sampler: Option<SamplerKind>,
@@ -142,6 +154,10 @@ impl RenderOptions {
         s.importance_sampling = self.importance.map_or(s.importance_sampling, |i| i == Switch::On);
         s.light_sampling = self.lights.unwrap_or(s.light_sampling);
         s.sampler = self.sampler.unwrap_or(s.sampler);
+        s.integrator = self.integrator.unwrap_or(s.integrator);
+        s.branching = self.branching.unwrap_or(s.branching);
+        s.directions = self.directions.unwrap_or(s.directions);
+        s.allow_expensive |= self.allow_expensive;
         s.firefly_clamp = self.clamp.or(s.firefly_clamp);
         if !self.without.is_empty() {
             s.robustness = self.without.iter().fold(Robustness::default(), |r, m| m.disable(r));

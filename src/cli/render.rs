@@ -40,6 +40,11 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     };
     let resolved = args.options.resolve(target)?;
     let settings = resolved.settings;
+    if settings.integrator == crate::integrator::Integrator::Distribution {
+        let rays = settings.rays_per_sample_bound();
+        let per_pixel = target.map_or(String::new(), |n| format!(", {:.3e} per pixel at {n} spp", rays * n as f64));
+        eprintln!("distribution ray tracing: up to {rays:.3e} rays per sample{per_pixel}");
+    }
     let scene = Arc::new(load_scene(args.scene.as_deref())?);
     let camera =
         resolved.camera.unwrap_or_else(|| scene.default_camera(settings.width as f32 / settings.height as f32));

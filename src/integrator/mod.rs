@@ -1,8 +1,10 @@
-//! Estimators of the rendering equation: render settings and the path tracer.
+//! Estimators of the rendering equation: render settings, the path tracer and the
+//! distribution ray tracer.
 
+mod drt;
 pub mod nan;
 pub mod path;
 pub mod settings;
 
 pub use path::{PathOutput, SampleFn, kernel};
-pub use settings::{LightSampling, PixelSampling, Robustness, SamplerKind, Settings};
+pub use settings::{Directions, Integrator, LightSampling, PixelSampling, Robustness, SamplerKind, Settings};

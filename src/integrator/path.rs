@@ -3,7 +3,7 @@
 //! Monomorphised over the scene's `Features`, so absent effects cost nothing.
 
 use super::nan::{NanCause, check};
-use super::settings::{LightSampling, PixelSampling, Settings};
+use super::settings::{Integrator, LightSampling, PixelSampling, Settings};
 use crate::bsdf::{Bsdf, Strategy};
 use crate::math::{
     float::{interpolation_error, offset_ray_origin},
@@ -83,7 +83,10 @@ fn sample_pixel<const E: bool, const P: bool, const T: bool, const G: bool>(
     let film = pixel.as_vec2() + pixel_offset(settings, pixel, index, &mut sampler);
     let ray = camera.ray(film);
     check(NanCause::CameraRay, ray.o + ray.d);
-    let mut out = radiance::<E, P, T, G>(scene, settings, ray, &mut sampler);
+    let mut out = match settings.integrator {
+        Integrator::Path => radiance::<E, P, T, G>(scene, settings, ray, &mut sampler),
+        Integrator::Distribution => super::drt::radiance::<E, P, T, G>(scene, settings, ray, &mut sampler),
+    };
     if let Some(c) = settings.firefly_clamp {
         let m = out.radiance.max_element();
         if m > c {
@@ -94,14 +97,55 @@ fn sample_pixel<const E: bool, const P: bool, const T: bool, const G: bool>(
 }
 
 /// Power heuristic with exponent 2 (Veach 1997): weight of the strategy with pdf `a`.
-fn power_heuristic(a: f32, b: f32) -> f32 {
+pub(super) fn power_heuristic(a: f32, b: f32) -> f32 {
     let (a2, b2) = (a * a, b * b);
     if a2 + b2 > 0.0 { a2 / (a2 + b2) } else { 0.0 }
 }
 
+/// Shading frame at `surface` for a ray arriving from `wo`, turned to the side it arrived
+/// from (`front`; every surface is shaded two-sided). A shading normal on the other side of
+/// the surface falls back to the geometric one, and one that would reflect the view below
+/// the surface is bent (`bend_normal`).
+pub(super) fn shading_frame(surface: &Surface, front: bool, wo: Vec3) -> Frame {
+    let ng = if front { surface.ng } else { -surface.ng };
+    let ns = if front { surface.ns } else { -surface.ns };
+    Frame::from_normal(bend_normal(ng, wo, if ns.dot(ng) > 0.0 { ns } else { ng }))
+}
+
 /// Where the previous bounce sampled its direction from, for MIS on emitters hit later.
+#[derive(Clone, Copy)]
 struct PrevBounce {
     pdf: f32,
+}
+
+/// Radiance emitted towards `wo` by the front of `surface`, reached at distance `t` by a
+/// ray the previous bounce sampled with density `prev_pdf` (None for camera rays),
+/// weighted so that light sampling at that bounce does not count it twice.
+pub(super) fn emitted<const T: bool>(
+    scene: &Scene,
+    settings: &Settings,
+    surface: &Surface,
+    wo: Vec3,
+    t: f32,
+    prev_pdf: Option<f32>,
+) -> Vec3 {
+    let material = &scene.materials[surface.material as usize];
+    if !material.is_emissive() {
+        return Vec3::ZERO;
+    }
+    let le = material.emission::<T>(&scene.textures, &scene.images, surface.uv);
+    let weight = match (settings.light_sampling, prev_pdf) {
+        (LightSampling::Off, _) | (_, None) => 1.0,
+        (LightSampling::Explicit, Some(_)) => 0.0,
+        (LightSampling::Mis, Some(pdf)) => {
+            let cos_light = surface.ng.dot(wo);
+            let area = scene.triangle_area(surface.tri);
+            let pdf_light = scene.light_sampler.triangle_pmf(surface.tri) * t * t / (cos_light * area);
+            power_heuristic(pdf, pdf_light)
+        }
+    };
+    check(NanCause::Emission, le);
+    le * weight
 }
 
 fn radiance<const E: bool, const P: bool, const T: bool, const G: bool>(
@@ -125,33 +169,14 @@ fn radiance<const E: bool, const P: bool, const T: bool, const G: bool>(
         let front = surface.ng.dot(wo_world) > 0.0;
         let material = &scene.materials[surface.material as usize];
 
-        // Emission: emitters radiate from their front side only.
-        if E && front && material.is_emissive() {
-            let le = material.emission::<T>(&scene.textures, &scene.images, surface.uv);
-            let weight = match (settings.light_sampling, &prev) {
-                (LightSampling::Off, _) | (_, None) => 1.0,
-                (LightSampling::Explicit, Some(_)) => 0.0,
-                (LightSampling::Mis, Some(b)) => {
-                    let cos_light = surface.ng.dot(wo_world);
-                    let area = scene.triangle_area(surface.tri);
-                    let pdf_light = scene.light_sampler.triangle_pmf(surface.tri) * hit.t * hit.t / (cos_light * area);
-                    power_heuristic(b.pdf, pdf_light)
-                }
-            };
-            check(NanCause::Emission, le);
-            radiance += throughput * le * weight;
+        if E && front {
+            radiance += throughput * emitted::<T>(scene, settings, &surface, wo_world, hit.t, prev.map(|b| b.pdf));
         }
         if depth == settings.max_depth {
             break;
         }
 
-        // Shading frame, turned to the side the ray arrived from (every surface is shaded
-        // two-sided); a shading normal on the other side of the surface falls back to the
-        // geometric one, and one that would reflect the view below the surface is bent.
-        let ng = if front { surface.ng } else { -surface.ng };
-        let ns = if front { surface.ns } else { -surface.ns };
-        let ns = bend_normal(ng, wo_world, if ns.dot(ng) > 0.0 { ns } else { ng });
-        let frame = Frame::from_normal(ns);
+        let frame = shading_frame(&surface, front, wo_world);
         let wo = frame.to_local(wo_world);
         let bsdf = material.bsdf::<T, G>(&scene.textures, &scene.images, surface.uv);
         let origin = scene.reflection_origin(&surface, front, robust.terminator, robust.offset_origins);
@@ -190,14 +215,14 @@ fn radiance<const E: bool, const P: bool, const T: bool, const G: bool>(
 }
 
 /// What light sampling needs to know about the shading point.
-struct Shading<'a> {
-    surface: &'a Surface,
-    frame: &'a Frame,
-    wo: Vec3,
-    bsdf: &'a Bsdf,
-    strategy: Strategy,
+pub(super) struct Shading<'a> {
+    pub(super) surface: &'a Surface,
+    pub(super) frame: &'a Frame,
+    pub(super) wo: Vec3,
+    pub(super) bsdf: &'a Bsdf,
+    pub(super) strategy: Strategy,
     /// Origin of shadow rays (see `Scene::reflection_origin`).
-    origin: Vec3,
+    pub(super) origin: Vec3,
 }
 
 impl Shading<'_> {
@@ -210,7 +235,7 @@ impl Shading<'_> {
 /// Direct light from one light chosen in proportion to power: the estimate and whether a
 /// shadow ray was traced. Area lights are sampled uniformly by area and converted to solid
 /// angle: Le f cos_s cos_l / (d^2 p_area p_select), with no clamp.
-fn sample_light<const E: bool, const P: bool, const T: bool>(
+pub(super) fn sample_light<const E: bool, const P: bool, const T: bool>(
     scene: &Scene,
     settings: &Settings,
     shade: &Shading,

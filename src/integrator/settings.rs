@@ -33,6 +33,34 @@ pub enum LightSampling {
     Mis,
 }
 
+/// Which estimator of the rendering equation renders the image.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "kebab-case")]
+pub enum Integrator {
+    /// Path tracing (section 10.7): one direction per bounce, Russian roulette.
+    #[default]
+    Path,
+    /// Distribution ray tracing (sections 10.2 to 10.6): `branching` directions at every
+    /// hit, recursively to `max_depth`; its cost grows as branching^depth.
+    Distribution,
+}
+
+/// How distribution ray tracing chooses its hemisphere directions at a hit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "kebab-case")]
+pub enum Directions {
+    /// Stratified Monte Carlo: one BSDF sample (or uniform sample, with importance
+    /// sampling off) per stratum of a grid over the unit square. Unbiased.
+    #[default]
+    Stratified,
+    /// The textbook's uniform theta/phi grid (eqs. 8 to 10), at cell midpoints, weighted by
+    /// sin(theta) dtheta dphi. Deterministic, biased by discretisation; a baseline.
+    Grid,
+}
+
+/// Rays one distribution-ray-traced sample may trace before it needs confirmation.
+pub const DRT_RAY_BUDGET: f64 = 2e5;
+
 /// Numerical-robustness mechanisms, all on by default. Switching one off shows what it
 /// prevents (light leaks, shadow acne, a faceted shadow terminator) and, with
 /// `lucent bench robustness`, what it costs.
@@ -84,6 +112,14 @@ pub struct Settings {
     pub robustness: Robustness,
     /// Sequence the pixel samples draw from.
     pub sampler: SamplerKind,
+    /// The estimator.
+    pub integrator: Integrator,
+    /// Directions per hit for distribution ray tracing.
+    pub branching: u32,
+    /// How distribution ray tracing chooses its directions.
+    pub directions: Directions,
+    /// Lets distribution ray tracing exceed `DRT_RAY_BUDGET` rays per sample.
+    pub allow_expensive: bool,
 }
 
 impl Default for Settings {
@@ -102,6 +138,10 @@ impl Default for Settings {
             target_spp: None,
             robustness: Robustness::default(),
             sampler: SamplerKind::default(),
+            integrator: Integrator::default(),
+            branching: 8,
+            directions: Directions::default(),
+            allow_expensive: false,
         }
     }
 }
@@ -119,6 +159,20 @@ impl fmt::Display for InvalidSettings {
 impl std::error::Error for InvalidSettings {}
 
 impl Settings {
+    /// Most rays one sample of distribution ray tracing traces: branching^k rays reach
+    /// depth k = 0..=max_depth, plus one shadow ray per hit below max_depth when lights
+    /// are sampled. Reached exactly in a closed scene. Infinite for path tracing (unbounded).
+    pub fn rays_per_sample_bound(&self) -> f64 {
+        if self.integrator == Integrator::Path {
+            return f64::INFINITY;
+        }
+        let n = self.branching as f64;
+        let depth = self.max_depth.min(4096) as i32;
+        let hits_below = (0..depth).map(|k| n.powi(k)).sum::<f64>();
+        let shadow = if self.light_sampling == LightSampling::Off { 0.0 } else { hits_below };
+        hits_below + n.powi(depth) + shadow
+    }
+
     /// Checks ranges: a non-empty image of at most 16384 pixels a side, at least one
     /// stratum, a positive finite clamp.
     pub fn validate(&self) -> Result<(), InvalidSettings> {
@@ -133,6 +187,16 @@ impl Settings {
             && !(c > 0.0 && c.is_finite())
         {
             return bad(format!("firefly clamp {c} must be positive and finite"));
+        }
+        if !(1..=4096).contains(&self.branching) {
+            return bad(format!("branching {} is outside 1..=4096", self.branching));
+        }
+        let rays = self.rays_per_sample_bound();
+        if self.integrator == Integrator::Distribution && rays > DRT_RAY_BUDGET && !self.allow_expensive {
+            return bad(format!(
+                "distribution ray tracing with branching {} and depth {} traces up to {rays:.3e} rays per sample, over the budget of {DRT_RAY_BUDGET:.0e}: allow it explicitly (--allow-expensive)",
+                self.branching, self.max_depth
+            ));
         }
         if self.target_spp == Some(0) {
             return bad("target spp must be at least 1".into());

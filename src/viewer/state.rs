@@ -76,6 +76,8 @@ pub struct ViewerState {
     pub selected: Option<u32>,
     /// The last error, shown until dismissed.
     pub error: Option<String>,
+    /// Why the current settings cannot start (shown beside them until they can).
+    pub settings_error: Option<String>,
     /// The last notice (where a screenshot went, ...).
     pub message: Option<String>,
     /// Folder for screenshots.
@@ -126,6 +128,7 @@ impl ViewerState {
             paused: false,
             selected: None,
             error: None,
+            settings_error: None,
             message: None,
             screenshot_dir: ".".into(),
             open_path: String::new(),
@@ -174,13 +177,14 @@ impl ViewerState {
         let job = Job { scene: Arc::clone(&want.scene), camera: want.camera, settings: want.settings };
         match self.session.set_job(job) {
             Ok(_) => {
+                self.settings_error = None;
                 self.sent = want;
                 self.restarted = Instant::now();
                 self.awaiting_first_image = true;
                 true
             }
             Err(e) => {
-                self.error = Some(e.to_string());
+                self.settings_error = Some(e.to_string());
                 false
             }
         }

@@ -3,7 +3,8 @@
 
 use super::state::ViewerState;
 use crate::film::tonemap::Tonemap;
-use crate::integrator::{LightSampling, PixelSampling, SamplerKind};
+use crate::integrator::settings::DRT_RAY_BUDGET;
+use crate::integrator::{Directions, Integrator, LightSampling, PixelSampling, SamplerKind};
 use crate::render::Snapshot;
 use egui::{Color32, Key, PointerButton, Rect, Sense, Ui, pos2};
 use glam::{UVec2, Vec2, Vec3};
@@ -145,9 +146,25 @@ fn estimator(ui: &mut Ui, state: &mut ViewerState) {
         ui.selectable_value(&mut s.sampler, SamplerKind::Independent, "Independent");
         ui.selectable_value(&mut s.sampler, SamplerKind::Sobol, "Sobol (Owen-scrambled)");
     });
-    egui::ComboBox::from_label("integrator").selected_text("path tracing").show_ui(ui, |ui| {
-        let _ = ui.selectable_label(true, "path tracing");
+    egui::ComboBox::from_label("integrator").selected_text(format!("{:?}", s.integrator)).show_ui(ui, |ui| {
+        ui.selectable_value(&mut s.integrator, Integrator::Path, "Path");
+        ui.selectable_value(&mut s.integrator, Integrator::Distribution, "Distribution (branching)");
     });
+    if s.integrator == Integrator::Distribution {
+        ui.add(egui::Slider::new(&mut s.branching, 1..=64).text("directions per hit"));
+        egui::ComboBox::from_label("directions").selected_text(format!("{:?}", s.directions)).show_ui(ui, |ui| {
+            ui.selectable_value(&mut s.directions, Directions::Stratified, "Stratified (Monte Carlo)");
+            ui.selectable_value(&mut s.directions, Directions::Grid, "Grid (biased baseline)");
+        });
+        let rays = s.rays_per_sample_bound();
+        ui.label(format!("up to {rays:.3e} rays per sample (branching^depth)"));
+        if rays > DRT_RAY_BUDGET {
+            ui.checkbox(&mut s.allow_expensive, format!("render anyway (budget {DRT_RAY_BUDGET:.0e})"));
+        }
+    }
+    if let Some(e) = &state.settings_error {
+        ui.colored_label(Color32::LIGHT_RED, e);
+    }
     ui.add(egui::Slider::new(&mut s.max_depth, 0..=64).text("max depth"));
     ui.add(egui::Slider::new(&mut s.rr_depth, 0..=64).text("roulette from"));
     egui::ComboBox::from_label("pixel sampling").selected_text(format!("{:?}", s.pixel_sampling)).show_ui(ui, |ui| {
