@@ -220,6 +220,70 @@ pub enum BenchKind {
     Kernel,
     /// Each robustness mechanism switched off in turn, against all of them on.
     Robustness,
+    /// Error against time for each estimator strategy: CSV, plot and table in --out.
+    Convergence,
+}
+
+/// A strategy of the convergence study.
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StrategyName {
+    /// Path tracing, uniform hemisphere directions, no light sampling.
+    PtUniform,
+    /// Path tracing, BSDF (cosine) importance sampling, no light sampling.
+    PtCosine,
+    /// Path tracing with explicit light sampling.
+    PtExplicit,
+    /// Path tracing with MIS.
+    PtMis,
+    /// Path tracing with MIS and the Owen-scrambled Sobol sampler.
+    PtMisSobol,
+    /// Distribution ray tracing, 4 stratified directions per hit, MIS.
+    Drt4,
+    /// Distribution ray tracing, 8 stratified directions per hit, MIS.
+    Drt8,
+    /// Path tracing with MIS on the uniform 4x4 sub-pixel grid (biased).
+    GridPixel,
+    /// Distribution ray tracing on the 16-direction theta/phi grid (biased).
+    GridHemisphere,
+}
+
+impl StrategyName {
+    /// Every strategy, in the study's order.
+    pub const ALL: [StrategyName; 9] = [
+        StrategyName::PtUniform,
+        StrategyName::PtCosine,
+        StrategyName::PtExplicit,
+        StrategyName::PtMis,
+        StrategyName::PtMisSobol,
+        StrategyName::Drt4,
+        StrategyName::Drt8,
+        StrategyName::GridPixel,
+        StrategyName::GridHemisphere,
+    ];
+}
+
+/// The options of `lucent bench convergence`, resolved.
+pub struct ConvergenceArgs {
+    /// Scene [default: the built-in Cornell box].
+    pub scene: Option<PathBuf>,
+    /// Seconds of rendering per strategy.
+    pub budget: f64,
+    /// Output folder.
+    pub out: PathBuf,
+    /// Reference EXR; rendered and cached in `out` when absent.
+    pub reference: Option<PathBuf>,
+    /// Seconds for rendering the reference.
+    pub reference_budget: f64,
+    /// Strategies to run (all when empty).
+    pub strategies: Vec<StrategyName>,
+    /// Image width and height.
+    pub size: u32,
+    /// Maximum depth of every strategy.
+    pub max_depth: u32,
+    /// Seed.
+    pub seed: u64,
+    /// Worker threads.
+    pub threads: Option<usize>,
 }
 
 /// `lucent bench`.
@@ -228,11 +292,32 @@ pub struct BenchArgs {
     /// What to measure.
     #[arg(value_enum, default_value = "kernel")]
     pub kind: BenchKind,
-    /// Scenes for `robustness` (.gltf or .glb) [default: the built-in Cornell box].
+    /// Scenes for `robustness`, or the one scene for `convergence` (.gltf or .glb) [default: the built-in Cornell box].
     pub scenes: Vec<PathBuf>,
-    /// Image width and height in pixels.
-    #[arg(long, default_value_t = 256)]
-    pub size: u32,
+    /// Image width and height in pixels [default: 256; 64 for convergence].
+    #[arg(long)]
+    pub size: Option<u32>,
+    /// Convergence: seconds of rendering per strategy.
+    #[arg(long)]
+    pub budget: Option<f64>,
+    /// Convergence: output folder for convergence.{csv,md,png,svg}.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Convergence: reference EXR [default: rendered with MIS + Sobol and cached in --out].
+    #[arg(long)]
+    pub reference: Option<PathBuf>,
+    /// Convergence: seconds for rendering the reference [default: 8 x --budget].
+    #[arg(long)]
+    pub reference_budget: Option<f64>,
+    /// Convergence: strategies to run, comma-separated [default: all].
+    #[arg(long, value_enum, value_delimiter = ',')]
+    pub strategies: Vec<StrategyName>,
+    /// Convergence: maximum depth of every strategy (DRT costs branching^depth).
+    #[arg(long, default_value_t = 3)]
+    pub max_depth: u32,
+    /// Convergence: seed.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
     /// Samples per pixel per measured run.
     #[arg(long, default_value_t = 16)]
     pub spp: u32,

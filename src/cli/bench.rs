@@ -3,7 +3,7 @@
 //! specialised to the scene's features with the general one on the Cornell box;
 //! `robustness` measures each numerical-robustness mechanism by switching it off.
 
-use super::args::{BenchArgs, BenchKind, Mechanism};
+use super::args::{BenchArgs, BenchKind, ConvergenceArgs, Mechanism};
 use super::render::load_scene;
 use crate::integrator::{Robustness, Settings};
 use crate::render::{Job, RenderSession};
@@ -22,13 +22,12 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
     if args.spp == 0 || args.runs == 0 || args.threads == Some(0) {
         return Err("--spp, --runs and --threads must be at least 1".into());
     }
-    let settings = Settings {
-        width: args.size,
-        height: args.size,
-        max_depth: 7,
-        target_spp: Some(args.spp),
-        ..Settings::default()
-    };
+    if args.kind == BenchKind::Convergence {
+        return super::convergence::run(&convergence_args(args)?);
+    }
+    let size = args.size.unwrap_or(256);
+    let settings =
+        Settings { width: size, height: size, max_depth: 7, target_spp: Some(args.spp), ..Settings::default() };
     settings.validate().map_err(|e| e.to_string())?;
     let threads = args.threads.map_or_else(|| rayon::current_num_threads().to_string(), |t| t.to_string());
     let scenes: Vec<Option<&std::path::Path>> = match args.kind {
@@ -44,16 +43,41 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
             scene.geometry.len(),
             args.spp,
             args.runs,
-            s = args.size
+            s = size
         );
         println!("features of the scene: {:?}", scene.features);
         let variants = match args.kind {
             BenchKind::Kernel => kernel_variants(&scene, settings),
-            BenchKind::Robustness => robustness_variants(&scene, settings),
+            _ => robustness_variants(&scene, settings),
         };
         measure(&variants, args)?;
     }
     Ok(())
+}
+
+/// The convergence study's options, checked.
+fn convergence_args(args: &BenchArgs) -> Result<ConvergenceArgs, String> {
+    let budget = args.budget.ok_or("bench convergence needs --budget SECONDS")?;
+    let out = args.out.clone().ok_or("bench convergence needs --out DIR")?;
+    if args.scenes.len() > 1 {
+        return Err("bench convergence takes one scene".into());
+    }
+    let reference_budget = args.reference_budget.unwrap_or(8.0 * budget);
+    if !(reference_budget > 0.0 && reference_budget.is_finite()) {
+        return Err(format!("--reference-budget {reference_budget} must be a positive number of seconds"));
+    }
+    Ok(ConvergenceArgs {
+        scene: args.scenes.first().cloned(),
+        budget,
+        out,
+        reference: args.reference.clone(),
+        reference_budget,
+        strategies: args.strategies.clone(),
+        size: args.size.unwrap_or(64),
+        max_depth: args.max_depth,
+        seed: args.seed,
+        threads: args.threads,
+    })
 }
 
 fn kernel_variants(scene: &Arc<Scene>, settings: Settings) -> Vec<Variant> {

@@ -1,7 +1,10 @@
-//! Command line: `lucent view` (the default), `lucent render` (headless, to PNG/EXR) and `lucent bench`.
+//! Command line: `lucent view` (the default), `lucent render` (headless, to PNG/EXR) and
+//! `lucent bench` (kernel, robustness and convergence measurements).
 
 pub mod args;
 mod bench;
+mod convergence;
+mod plot;
 pub mod render;
 
 use clap::Parser;
