@@ -75,21 +75,25 @@ impl Snapshot {
         )
     }
 
-    /// Estimated remaining noise: the mean over lit pixels of the relative standard error of
-    /// the pixel's luminance (its variance taken as sum w_c^2 var_c, ignoring the covariance
-    /// between channels). None before two samples per pixel.
+    /// Estimated remaining noise: the mean over lit pixels of `pixel_relative_error`.
+    /// None before two samples per pixel.
     pub fn relative_error(&self) -> Option<f64> {
-        let w = [0.2126f64, 0.7152, 0.0722];
         let (mut sum, mut n) = (0.0f64, 0usize);
-        for (m, v) in self.mean.iter().zip(&self.variance) {
-            let lum: f64 = (0..3).map(|c| w[c] * m[c] as f64).sum();
-            if lum > 0.0 {
-                let var: f64 = (0..3).map(|c| w[c] * w[c] * v[c] as f64).sum();
-                sum += var.sqrt() / lum;
-                n += 1;
-            }
+        for e in (0..self.mean.len()).filter_map(|i| self.pixel_relative_error(i)) {
+            sum += e;
+            n += 1;
         }
         (self.spp >= 2 && n > 0).then(|| sum / n as f64)
+    }
+
+    /// Relative standard error of pixel `i`'s luminance (its variance taken as
+    /// sum w_c^2 var_c, ignoring the covariance between channels); None for unlit pixels.
+    pub fn pixel_relative_error(&self, i: usize) -> Option<f64> {
+        let w = [0.2126f64, 0.7152, 0.0722];
+        let (m, v) = (self.mean[i], self.variance[i]);
+        let lum: f64 = (0..3).map(|c| w[c] * m[c] as f64).sum();
+        let var: f64 = (0..3).map(|c| w[c] * w[c] * v[c] as f64).sum();
+        (lum > 0.0).then(|| var.sqrt() / lum)
     }
 }
 

@@ -2,6 +2,7 @@
 //! converging live while the render session's workers keep adding samples.
 
 pub mod camera_control;
+pub mod convergence;
 mod gpu;
 pub mod state;
 mod ui;
@@ -28,6 +29,9 @@ const POLL: Duration = Duration::from_millis(33);
 /// second without spending the render cores on redraws (a new job's first image and the
 /// final one are shown at once).
 const REFRESH: Duration = Duration::from_millis(250);
+
+/// What decides how an image is drawn: display transform, error view, selected material.
+type Look = (crate::film::tonemap::Display, bool, Option<u32>);
 
 /// Opens the viewer; with `--screenshot`, renders to `--spp`, saves and exits.
 pub fn run(args: &ViewArgs) -> Result<(), String> {
@@ -70,6 +74,8 @@ struct App {
     redraw_wanted: bool,
     /// When the image on screen was last replaced.
     shown_at: Instant,
+    /// How the image on screen was drawn (display transform, error view, selection).
+    shown_look: Look,
     frames: u32,
     frame_time: Duration,
     result: Result<(), String>,
@@ -86,6 +92,7 @@ impl App {
             repaint_at: None,
             redraw_wanted: true,
             shown_at: Instant::now(),
+            shown_look: Look::default(),
             frames: 0,
             frame_time: Duration::ZERO,
             result: Ok(()),
@@ -114,11 +121,18 @@ impl App {
         event_loop.exit();
     }
 
-    /// The newest image, if it should replace the one on screen now.
+    /// How the state asks images to be drawn now.
+    fn look(&self) -> Look {
+        (self.state.display, self.state.show_error, self.state.selected)
+    }
+
+    /// The newest image, if it should replace the one on screen now (or be redrawn, if
+    /// the way it is drawn changed).
     fn image_due(&mut self) -> Option<Arc<Snapshot>> {
         let snap = self.state.snapshot()?;
         let due = match &self.ui.shown {
             None => true,
+            _ if self.look() != self.shown_look => true,
             Some(s) if Arc::ptr_eq(s, &snap) => false,
             Some(s) => s.generation != snap.generation || snap.done || self.shown_at.elapsed() >= REFRESH,
         };
@@ -128,7 +142,11 @@ impl App {
     /// Shows the newest image, if it is due.
     fn update_image(&mut self) {
         let Some(snap) = self.image_due() else { return };
+        if self.ui.shown.as_ref().is_none_or(|s| !Arc::ptr_eq(s, &snap)) {
+            self.state.record_convergence(&snap);
+        }
         self.shown_at = Instant::now();
+        self.shown_look = self.look();
         let rgba = self.state.display_rgba(&snap);
         let size = [snap.width as usize, snap.height as usize];
         let image = egui::ColorImage::from_rgba_unmultiplied(size, rgba.as_flattened());

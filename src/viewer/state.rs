@@ -3,6 +3,7 @@
 //! The UI edits fields freely; `sync` turns any change into a restart of accumulation.
 
 use super::camera_control::CameraController;
+use super::convergence::{self, ConvergenceLog};
 use crate::config::ViewFile;
 use crate::film::output::write_image;
 use crate::film::tonemap::Display;
@@ -78,6 +79,10 @@ pub struct ViewerState {
     pub error: Option<String>,
     /// Why the current settings cannot start (shown beside them until they can).
     pub settings_error: Option<String>,
+    /// Estimated error against time of this job and the previous ones.
+    pub convergence: ConvergenceLog,
+    /// Show the per-pixel relative standard error in false colour instead of the image.
+    pub show_error: bool,
     /// The last notice (where a screenshot went, ...).
     pub message: Option<String>,
     /// Folder for screenshots.
@@ -129,6 +134,8 @@ impl ViewerState {
             selected: None,
             error: None,
             settings_error: None,
+            convergence: ConvergenceLog::default(),
+            show_error: false,
             message: None,
             screenshot_dir: ".".into(),
             open_path: String::new(),
@@ -307,8 +314,23 @@ impl ViewerState {
         Some(self.scene.geometry.attrs(hit.tri).material)
     }
 
-    /// Tonemaps a snapshot to RGBA8 for display, tinting the selected material's pixels.
+    /// Logs a shown image's estimated error, if it is a full-resolution one (previews
+    /// during camera motion are not part of the job's convergence).
+    pub fn record_convergence(&mut self, snap: &Snapshot) {
+        let full = self.effective_settings_full();
+        if snap.width == full.width && snap.height == full.height {
+            self.convergence.record(snap, &convergence::label(&self.sent.settings));
+        }
+    }
+
+    /// Tonemaps a snapshot to RGBA8 for display, tinting the selected material's pixels;
+    /// or, with `show_error`, the false colour of each pixel's relative standard error.
     pub fn display_rgba(&mut self, snap: &Snapshot) -> Vec<[u8; 4]> {
+        if self.show_error {
+            return (0..snap.mean.len())
+                .map(|i| convergence::error_colour(snap.pixel_relative_error(i).unwrap_or(0.0) as f32))
+                .collect();
+        }
         if self.selected.is_some() {
             self.update_material_ids(snap);
         }

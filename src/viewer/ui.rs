@@ -7,6 +7,7 @@ use crate::integrator::settings::DRT_RAY_BUDGET;
 use crate::integrator::{Directions, Integrator, LightSampling, PixelSampling, SamplerKind};
 use crate::render::Snapshot;
 use egui::{Color32, Key, PointerButton, Rect, Sense, Ui, pos2};
+use egui_plot::{GridMark, Legend, Line, Plot, log_grid_spacer};
 use glam::{UVec2, Vec2, Vec3};
 use std::time::{Duration, Instant};
 
@@ -23,13 +24,15 @@ pub struct UiState {
     pub frame_ms: f32,
     /// The user asked to quit (Ctrl+Q).
     pub quit: bool,
+    /// Target of the time-to-error estimate, in percent.
+    pub target_error_percent: f64,
     last_input: Option<Instant>,
 }
 
 impl UiState {
     /// Empty UI state.
     pub fn new() -> Self {
-        Self { texture: None, shown: None, frame_ms: 0.0, quit: false, last_input: None }
+        Self { texture: None, shown: None, frame_ms: 0.0, quit: false, target_error_percent: 1.0, last_input: None }
     }
 }
 
@@ -130,6 +133,7 @@ fn controls(ui: &mut Ui, state: &mut ViewerState, ui_state: &mut UiState) {
             });
         }
     });
+    egui::CollapsingHeader::new("Convergence").default_open(true).show(ui, |ui| convergence(ui, state, ui_state));
     egui::CollapsingHeader::new("Camera").default_open(true).show(ui, |ui| camera(ui, state));
     egui::CollapsingHeader::new("Files").default_open(true).show(ui, |ui| files(ui, state));
 }
@@ -203,6 +207,43 @@ fn estimator(ui: &mut Ui, state: &mut ViewerState) {
         ui.checkbox(&mut r.offset_origins, "error-bound ray offsets (off: shadow acne)");
         ui.checkbox(&mut r.terminator, "shadow-terminator offset (off: faceted terminator)");
     });
+}
+
+/// The estimated error against time (log-log) of this job and the previous ones, the time
+/// to a target error, and the switch to the per-pixel error view.
+fn convergence(ui: &mut Ui, state: &mut ViewerState, ui_state: &mut UiState) {
+    let log = &state.convergence;
+    let to_log = |points: &[[f64; 2]]| points.iter().map(|p| [p[0].log10(), p[1].log10()]).collect::<Vec<_>>();
+    let power_of_ten = |mark: GridMark, _: &std::ops::RangeInclusive<f64>| format!("{:.3}", 10f64.powf(mark.value));
+    Plot::new("convergence")
+        .height(150.0)
+        .legend(Legend::default())
+        .x_axis_label("seconds")
+        .y_axis_label("rel. error")
+        .x_axis_formatter(power_of_ten)
+        .y_axis_formatter(power_of_ten)
+        .x_grid_spacer(log_grid_spacer(10))
+        .y_grid_spacer(log_grid_spacer(10))
+        .allow_scroll(false)
+        .show(ui, |plot| {
+            for (k, c) in log.previous.iter().enumerate() {
+                plot.line(Line::new(format!("{} #{}", c.label, k + 1), to_log(&c.points)).width(1.0));
+            }
+            if let Some(c) = &log.current {
+                plot.line(Line::new(format!("{} (now)", c.label), to_log(&c.points)).width(2.5));
+            }
+        });
+    ui.horizontal(|ui| {
+        ui.label("target");
+        ui.add(egui::DragValue::new(&mut ui_state.target_error_percent).range(0.01..=100.0).speed(0.05).suffix(" %"));
+        let text = match log.time_to(ui_state.target_error_percent / 100.0) {
+            Some(0.0) => "reached".to_string(),
+            Some(t) => format!("about {t:.0} s more at this rate (error ~ time^-1/2)"),
+            None => "-".to_string(),
+        };
+        ui.label(text);
+    });
+    ui.checkbox(&mut state.show_error, "show per-pixel error (false colour, 0.1% dark to 100% bright)");
 }
 
 fn camera(ui: &mut Ui, state: &mut ViewerState) {

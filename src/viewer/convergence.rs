@@ -1,0 +1,135 @@
+//! The live convergence log: the estimated error of the current view against render time,
+//! one curve per job (earlier jobs kept for comparison), the time still needed to reach a
+//! target error, and the false colours of the per-pixel error view.
+
+use crate::integrator::{Integrator, Settings};
+use crate::render::Snapshot;
+use std::collections::VecDeque;
+
+/// Earlier curves kept on the plot.
+const KEPT: usize = 4;
+
+/// One job's estimated relative error against time.
+#[derive(Clone, Debug)]
+pub struct Curve {
+    /// What rendered it (estimator and sampler).
+    pub label: String,
+    /// (seconds, mean relative standard error) per image.
+    pub points: Vec<[f64; 2]>,
+}
+
+/// The current job's curve and the few before it.
+#[derive(Default)]
+pub struct ConvergenceLog {
+    generation: Option<u64>,
+    /// The job being rendered.
+    pub current: Option<Curve>,
+    /// Earlier jobs, oldest first.
+    pub previous: VecDeque<Curve>,
+}
+
+impl ConvergenceLog {
+    /// Adds a full-resolution image of a job labelled `label`; a new job starts a new
+    /// curve and keeps the finished one (if it has at least two points) for comparison.
+    pub fn record(&mut self, snap: &Snapshot, label: &str) {
+        if self.generation != Some(snap.generation) {
+            if let Some(done) = self.current.take().filter(|c| c.points.len() >= 2) {
+                self.previous.push_back(done);
+                if self.previous.len() > KEPT {
+                    self.previous.pop_front();
+                }
+            }
+            self.generation = Some(snap.generation);
+            self.current = Some(Curve { label: label.into(), points: Vec::new() });
+        }
+        let (Some(curve), Some(error)) = (self.current.as_mut(), snap.relative_error()) else { return };
+        let t = snap.elapsed.as_secs_f64();
+        if error > 0.0 && error.is_finite() && t > 0.0 && curve.points.last().is_none_or(|p| p[0] < t) {
+            curve.points.push([t, error]);
+        }
+    }
+
+    /// Seconds of rendering still needed for the error to reach `target`, if the error
+    /// keeps falling as time^-1/2 from the latest point (as an unbiased estimator's does).
+    pub fn time_to(&self, target: f64) -> Option<f64> {
+        let [t, e] = *self.current.as_ref()?.points.last()?;
+        Some(if e <= target { 0.0 } else { t * (e / target).powi(2) - t })
+    }
+}
+
+/// A short label for the settings that make curves differ.
+pub fn label(s: &Settings) -> String {
+    let estimator = match s.integrator {
+        Integrator::Path => "PT".to_string(),
+        Integrator::Distribution => format!("DRT {} {:?}", s.branching, s.directions),
+    };
+    let importance = if s.importance_sampling { "" } else { " uniform" };
+    format!("{estimator}{importance} lights {:?}, {:?}", s.light_sampling, s.sampler)
+}
+
+/// False colour of a relative standard error: log scale from 0.1% (dark) to 100% (bright).
+pub fn error_colour(relative: f32) -> [u8; 4] {
+    let t = if relative.is_finite() { ((relative.max(1e-3).log10() + 3.0) / 3.0).clamp(0.0, 1.0) } else { 1.0 };
+    let c = colorous::INFERNO.eval_continuous(t as f64);
+    [c.r, c.g, c.b, 255]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec3;
+    use std::time::Duration;
+
+    fn snap(generation: u64, seconds: f64, error: f32) -> Snapshot {
+        // One pixel of mean 1 whose variance of the mean gives the wanted relative error.
+        Snapshot {
+            generation,
+            width: 1,
+            height: 1,
+            mean: vec![Vec3::ONE],
+            variance: vec![Vec3::splat(error * error)],
+            spp: 2,
+            elapsed: Duration::from_secs_f64(seconds),
+            samples: 1,
+            rays: 1,
+            rejected: 0,
+            done: false,
+        }
+    }
+
+    #[test]
+    fn a_new_job_keeps_the_previous_curve_for_comparison() {
+        let mut log = ConvergenceLog::default();
+        for (t, e) in [(1.0, 0.1), (4.0, 0.05)] {
+            log.record(&snap(1, t, e), "PT");
+        }
+        log.record(&snap(2, 0.5, 0.2), "DRT");
+        assert_eq!(log.previous.len(), 1);
+        assert_eq!(log.previous[0].label, "PT");
+        assert_eq!(log.previous[0].points.len(), 2);
+        assert_eq!(log.current.as_ref().unwrap().label, "DRT");
+        for g in 3..10 {
+            log.record(&snap(g, 1.0, 0.1), "x");
+            log.record(&snap(g, 2.0, 0.07), "x");
+        }
+        assert_eq!(log.previous.len(), KEPT);
+    }
+
+    #[test]
+    fn the_time_to_a_target_follows_the_inverse_square_root_law() {
+        let mut log = ConvergenceLog::default();
+        log.record(&snap(1, 2.0, 0.04), "PT");
+        let rel = log.current.as_ref().unwrap().points[0][1];
+        // Halving the error takes four times the time: 3 x 2 s more.
+        assert!((log.time_to(rel / 2.0).unwrap() - 6.0).abs() < 1e-9);
+        assert_eq!(log.time_to(rel * 2.0), Some(0.0));
+    }
+
+    #[test]
+    fn false_colours_brighten_with_the_error() {
+        let lum = |c: [u8; 4]| c[0] as u32 + c[1] as u32 + c[2] as u32;
+        assert!(lum(error_colour(1e-3)) < lum(error_colour(0.03)));
+        assert!(lum(error_colour(0.03)) < lum(error_colour(1.0)));
+        assert_eq!(error_colour(f32::NAN), error_colour(10.0));
+    }
+}
