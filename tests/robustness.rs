@@ -86,18 +86,22 @@ fn a_closed_jittered_sphere_is_watertight() {
     assert_eq!(misses, 0, "rays escaped a closed mesh");
 }
 
+/// A ray from outside towards the unit sphere at the origin, with a uniform impact
+/// parameter, or one within 1e-3 of the rim (grazing) when `grazing`.
+fn aim_at_unit_sphere(s: &mut Sampler, grazing: bool) -> Ray {
+    let side = random_direction(s);
+    let impact = if grazing { 1.0 - 1e-3 * s.next_1d() } else { s.next_1d() };
+    let perp = side.cross(random_direction(s)).normalize();
+    Ray { o: side * 3.0 + perp * impact, d: -side, tmax: f32::INFINITY }
+}
+
 #[test]
 fn reflected_rays_never_re_hit_a_convex_sphere_even_at_grazing_angles() {
     let scene = sphere_scene(closed_sphere(1.0, 128, 256, 0.0));
     let mut s = Sampler::new(UVec2::new(5, 6), 0, 9);
     let (mut hits, mut self_hits) = (0, 0);
     for i in 0..50_000 {
-        // Aim at the sphere from outside, with impact parameters up to grazing.
-        let side = random_direction(&mut s);
-        let impact = if i % 2 == 0 { s.next_1d() } else { 1.0 - 1e-3 * s.next_1d() };
-        let perp = side.cross(random_direction(&mut s)).normalize();
-        let o = side * 3.0 + perp * impact;
-        let ray = Ray { o, d: -side, tmax: f32::INFINITY };
+        let ray = aim_at_unit_sphere(&mut s, i % 2 == 1);
         let Some(hit) = scene.geometry.intersect(&ray) else { continue };
         hits += 1;
         let surface = scene.surface(&hit);
@@ -229,10 +233,7 @@ fn refracted_and_internally_reflected_rays_neither_re_hit_nor_leak_at_grazing_an
     let mut s = Sampler::new(UVec2::new(8, 1), 0, 21);
     let (mut refracted, mut tir) = (0, 0);
     for i in 0..40_000 {
-        let side = random_direction(&mut s);
-        let impact = if i % 2 == 0 { s.next_1d() } else { 1.0 - 1e-3 * s.next_1d() };
-        let perp = side.cross(random_direction(&mut s)).normalize();
-        let ray = Ray { o: side * 3.0 + perp * impact, d: -side, tmax: f32::INFINITY };
+        let ray = aim_at_unit_sphere(&mut s, i % 2 == 1);
         let Some(hit) = scene.geometry.intersect(&ray) else { continue };
         let surface = scene.surface(&hit);
         let n = surface.ng; // outward; the ray arrives against it
