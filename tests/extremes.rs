@@ -25,6 +25,7 @@ fn quad(name: &str, corners: [Vec3; 4], material: u32) -> MeshDesc {
         uvs: Some(vec![Vec2::ZERO, Vec2::X, Vec2::ONE, Vec2::Y]),
         indices: vec![0, 1, 2, 0, 2, 3],
         material,
+        ..MeshDesc::default()
     }
 }
 

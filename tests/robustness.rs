@@ -42,7 +42,7 @@ fn closed_sphere(radius: f32, stacks: u32, slices: u32, jitter: f32) -> MeshDesc
             indices.extend_from_slice(&[a, b, c, a, c, d]);
         }
     }
-    MeshDesc { name: "sphere".into(), positions, normals: None, uvs: None, indices, material: 0 }
+    MeshDesc { name: "sphere".into(), positions, indices, ..MeshDesc::default() }
 }
 
 fn sphere_scene(mesh: MeshDesc) -> Scene {

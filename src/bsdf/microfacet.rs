@@ -60,6 +60,45 @@ impl Ggx {
         }
         self.g1(wo) * self.d(h) / (4.0 * wo.z)
     }
+
+    /// Density of `sample_visible_normal` at half vector h: G1(wo) D(h) max(0, wo.h) / cos theta_o.
+    pub fn pdf_visible_normal(&self, wo: Vec3, h: Vec3) -> f32 {
+        if wo.z <= 0.0 {
+            return 0.0;
+        }
+        self.g1(wo) * self.d(h) * wo.dot(h).max(0.0) / wo.z
+    }
+}
+
+/// Unpolarised Fresnel reflectance of a dielectric interface for light arriving at cosine
+/// `cos_i` (negative: from the other side) with relative index `eta` = n_transmitted /
+/// n_incident for light arriving from the positive side. 1 under total internal reflection.
+pub fn fresnel_dielectric(cos_i: f32, eta: f32) -> f32 {
+    let (mut cos_i, mut eta) = (cos_i.clamp(-1.0, 1.0), eta);
+    if cos_i < 0.0 {
+        eta = 1.0 / eta;
+        cos_i = -cos_i;
+    }
+    let sin2_t = (1.0 - cos_i * cos_i) / (eta * eta);
+    if sin2_t >= 1.0 {
+        return 1.0;
+    }
+    let cos_t = (1.0 - sin2_t).max(0.0).sqrt();
+    let parallel = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
+    let perpendicular = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
+    0.5 * (parallel * parallel + perpendicular * perpendicular)
+}
+
+/// Refraction of `wo` (pointing away, on the side `h` faces) through a surface with normal
+/// `h` and relative index `eta` = n_other / n_wo. None under total internal reflection.
+pub fn refract(wo: Vec3, h: Vec3, eta: f32) -> Option<Vec3> {
+    let cos_i = wo.dot(h);
+    let sin2_t = (1.0 - cos_i * cos_i).max(0.0) / (eta * eta);
+    if sin2_t >= 1.0 || cos_i <= 0.0 {
+        return None;
+    }
+    let cos_t = (1.0 - sin2_t).sqrt();
+    Some(-wo / eta + (cos_i / eta - cos_t) * h)
 }
 
 /// Mirror reflection of `wo` about `h`.

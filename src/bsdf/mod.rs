@@ -3,9 +3,11 @@
 //! `pdf` is the solid-angle density of `sample`. Degenerate samples are rejected here.
 
 pub mod albedo;
+mod dielectric;
 mod diffuse;
 mod metal_rough;
 pub mod microfacet;
+pub mod sheen;
 
 pub use diffuse::Lambert;
 pub use metal_rough::MetalRough;
@@ -29,7 +31,8 @@ pub struct BsdfSample {
 pub enum Strategy {
     /// Directions in proportion to the BSDF (cosine for diffuse, VNDF for glossy).
     Importance,
-    /// Directions uniform over the hemisphere, pdf 1 / (2 pi).
+    /// Directions uniform over the hemisphere, pdf 1 / (2 pi); over the sphere, pdf
+    /// 1 / (4 pi), for BSDFs that transmit.
     Uniform,
 }
 
@@ -43,9 +46,20 @@ pub enum Bsdf {
 }
 
 impl Bsdf {
-    /// f(wo, wi) |cos theta_i|; zero unless both directions are above the surface.
+    /// Whether light can pass through to the other side (wi below the surface).
+    pub fn transmits(&self) -> bool {
+        matches!(self, Bsdf::MetalRough(b) if b.transmits())
+    }
+
+    /// Whether `wi` lies where this BSDF can be non-zero for a wo above the surface.
+    fn reaches(&self, wo: Vec3, wi: Vec3) -> bool {
+        wo.z > 0.0 && (wi.z > 0.0 || (wi.z < 0.0 && self.transmits()))
+    }
+
+    /// f(wo, wi) |cos theta_i|; zero unless wo is above the surface and wi above it too, or
+    /// below it for a transmitting BSDF.
     pub fn eval_cos(&self, wo: Vec3, wi: Vec3) -> Vec3 {
-        if wo.z <= 0.0 || wi.z <= 0.0 {
+        if !self.reaches(wo, wi) {
             return Vec3::ZERO;
         }
         match self {
@@ -56,10 +70,11 @@ impl Bsdf {
 
     /// Solid-angle pdf with which `sample` under `strategy` returns `wi`.
     pub fn pdf(&self, wo: Vec3, wi: Vec3, strategy: Strategy) -> f32 {
-        if wo.z <= 0.0 || wi.z <= 0.0 {
+        if !self.reaches(wo, wi) {
             return 0.0;
         }
         match (strategy, self) {
+            (Strategy::Uniform, _) if self.transmits() => warp::UNIFORM_SPHERE_PDF,
             (Strategy::Uniform, _) => warp::UNIFORM_HEMISPHERE_PDF,
             (Strategy::Importance, Bsdf::Lambert(_)) => warp::cos_hemisphere_pdf(wi.z),
             (Strategy::Importance, Bsdf::MetalRough(b)) => b.pdf(wo, wi),
@@ -73,6 +88,7 @@ impl Bsdf {
             return None;
         }
         let wi = match (strategy, self) {
+            (Strategy::Uniform, _) if self.transmits() => warp::uniform_sphere(u),
             (Strategy::Uniform, _) => warp::uniform_hemisphere(u),
             (Strategy::Importance, Bsdf::Lambert(_)) => warp::cos_hemisphere(u),
             (Strategy::Importance, Bsdf::MetalRough(b)) => b.sample_direction(wo, u_lobe, u)?,

@@ -5,9 +5,10 @@
 //! to 10, deterministic and biased). Light sampling at each hit works as in the path
 //! tracer, with the direction scheme's density in the MIS weights.
 
-use super::path::{PathOutput, Shading, emitted, sample_light, shading_frame};
+use super::media::{Media, transmittance};
+use super::path::{PathOutput, Vertex, emitted, sample_light};
 use super::settings::{Directions, LightSampling, Settings};
-use crate::bsdf::{Bsdf, Strategy};
+use crate::bsdf::Bsdf;
 use crate::math::sampler::Sampler;
 use crate::scene::{Scene, geometry::Ray};
 use glam::{Vec2, Vec3};
@@ -21,7 +22,7 @@ pub(super) fn radiance<const E: bool, const P: bool, const T: bool, const G: boo
     sampler: &mut Sampler,
 ) -> PathOutput {
     let mut rays = 0;
-    let radiance = trace::<E, P, T, G>(scene, settings, ray, 0, None, sampler, &mut rays);
+    let radiance = trace::<E, P, T, G>(scene, settings, ray, Media::default(), 0, None, sampler, &mut rays);
     PathOutput { radiance, rays }
 }
 
@@ -40,46 +41,46 @@ fn strata_shape(n: u32) -> (u32, u32) {
     (n / a, a)
 }
 
+#[allow(clippy::too_many_arguments)]
 fn trace<const E: bool, const P: bool, const T: bool, const G: bool>(
     scene: &Scene,
     settings: &Settings,
     ray: Ray,
+    media: Media,
     depth: u32,
     prev_pdf: Option<f32>,
     sampler: &mut Sampler,
     rays: &mut u32,
 ) -> Vec3 {
     *rays += 1;
-    let robust = settings.robustness;
-    let Some(hit) = scene.geometry.intersect_with(&ray, robust.watertight) else { return Vec3::ZERO };
+    let Some(hit) = scene.intersect(&ray, settings.robustness.watertight, depth == 0) else { return Vec3::ZERO };
+    let absorbed = if scene.features.volumes {
+        transmittance(media.sigma_a(&scene.materials), hit.t * ray.d.length())
+    } else {
+        Vec3::ONE
+    };
     let surface = scene.surface(&hit);
-    let wo_world = -ray.d;
-    let front = surface.ng.dot(wo_world) > 0.0;
     let mut radiance = Vec3::ZERO;
-    if E && front {
-        radiance += emitted::<T>(scene, settings, &surface, wo_world, hit.t, prev_pdf);
+    if E && surface.ng.dot(ray.d) < 0.0 {
+        radiance += emitted::<T>(scene, settings, &surface, -ray.d, hit.t, prev_pdf);
     }
     if depth == settings.max_depth {
-        return radiance;
+        return radiance * absorbed;
     }
-    let frame = shading_frame(&surface, front, wo_world);
-    let wo = frame.to_local(wo_world);
-    let material = &scene.materials[surface.material as usize];
-    let bsdf = material.bsdf::<T, G>(&scene.textures, &scene.images, surface.uv);
-    let origin = scene.reflection_origin(&surface, front, robust.terminator, robust.offset_origins);
-    let strategy = if settings.importance_sampling { Strategy::Importance } else { Strategy::Uniform };
+    let vertex = Vertex::new::<T, G>(scene, settings, surface, ray.d, media);
     if (E || P) && settings.light_sampling != LightSampling::Off {
-        let shade = Shading { surface: &surface, frame: &frame, wo, bsdf: &bsdf, strategy, origin };
-        let (l, traced) = sample_light::<E, P, T>(scene, settings, &shade, sampler);
+        let (l, traced) = sample_light::<E, P, T>(scene, settings, &vertex, sampler);
         radiance += l;
         *rays += traced as u32;
     }
     let n = settings.branching;
     let mut follow = |wi_local: Vec3, weight: Vec3, pdf: f32, sampler: &mut Sampler| {
-        let d = frame.to_world(wi_local);
-        let next = Ray { o: origin, d, tmax: f32::INFINITY };
-        weight * trace::<E, P, T, G>(scene, settings, next, depth + 1, Some(pdf), sampler, rays)
+        let Some((d, o, crosses)) = vertex.leave(wi_local) else { return Vec3::ZERO };
+        let next = Ray { o, d, tmax: f32::INFINITY };
+        let media = vertex.media_after(scene, crosses);
+        weight * trace::<E, P, T, G>(scene, settings, next, media, depth + 1, Some(pdf), sampler, rays)
     };
+    let (bsdf, wo, strategy) = (&vertex.bsdf, vertex.wo, vertex.strategy);
     match settings.directions {
         Directions::Stratified => {
             let (sx, sy) = strata_shape(n);
@@ -92,9 +93,9 @@ fn trace<const E: bool, const P: bool, const T: bool, const G: bool>(
                 }
             }
         }
-        Directions::Grid => radiance += grid(&bsdf, wo, n, sampler, &mut follow),
+        Directions::Grid => radiance += grid(bsdf, wo, n, sampler, &mut follow),
     }
-    radiance
+    radiance * absorbed
 }
 
 /// The textbook's eq. 10 at cell midpoints: sum of f cos L sin(theta) dtheta dphi. Each

@@ -2,6 +2,7 @@
 //! distribution ray tracer.
 
 mod drt;
+pub mod media;
 pub mod nan;
 pub mod path;
 pub mod settings;

@@ -2,6 +2,7 @@
 //! importance sampling (10.8), explicit light sampling (10.9) or MIS, and Russian roulette.
 //! Monomorphised over the scene's `Features`, so absent effects cost nothing.
 
+use super::media::{Media, transmittance};
 use super::nan::{NanCause, check};
 use super::settings::{Integrator, LightSampling, PixelSampling, Settings};
 use crate::bsdf::{Bsdf, Strategy};
@@ -14,7 +15,7 @@ use crate::math::{
 use crate::scene::{
     Features, Scene, Surface,
     camera::RayGenerator,
-    geometry::Ray,
+    geometry::{Hit, Ray},
     light::{LightRef, PunctualKind},
     shading::bend_normal,
 };
@@ -133,7 +134,7 @@ pub(super) fn emitted<const T: bool>(
     if !material.is_emissive() {
         return Vec3::ZERO;
     }
-    let le = material.emission::<T>(&scene.textures, &scene.images, surface.uv);
+    let le = material.emission::<T>(&scene.textures, &scene.images, surface);
     let weight = match (settings.light_sampling, prev_pdf) {
         (LightSampling::Off, _) | (_, None) => 1.0,
         (LightSampling::Explicit, Some(_)) => 0.0,
@@ -148,43 +149,112 @@ pub(super) fn emitted<const T: bool>(
     le * weight
 }
 
+/// A scattering event: the surface, its shading frame turned to the side the path arrived
+/// from, the BSDF there, where rays leave from, and the volumes the path is in.
+pub(super) struct Vertex {
+    pub(super) surface: Surface,
+    /// The path arrived on the front (glTF winding) side.
+    pub(super) front: bool,
+    pub(super) frame: Frame,
+    /// Direction back along the arriving ray, in the shading frame.
+    pub(super) wo: Vec3,
+    pub(super) bsdf: Bsdf,
+    pub(super) strategy: Strategy,
+    /// Origin of rays leaving on the arriving side (see `Scene::reflection_origin`).
+    pub(super) origin: Vec3,
+    /// Origin of rays crossing the surface.
+    pub(super) behind: Vec3,
+    /// Volumes the path is in when it arrives.
+    pub(super) media: Media,
+}
+
+impl Vertex {
+    /// The vertex where a ray travelling along `d` meets `surface`.
+    pub(super) fn new<const T: bool, const G: bool>(
+        scene: &Scene,
+        settings: &Settings,
+        surface: Surface,
+        d: Vec3,
+        media: Media,
+    ) -> Self {
+        let wo_world = -d;
+        let front = surface.ng.dot(wo_world) > 0.0;
+        let frame = shading_frame(&surface, front, wo_world);
+        let material = &scene.materials[surface.material as usize];
+        let outside_ior =
+            if scene.features.volumes { media.outside_ior(&scene.materials, surface.material, front) } else { 1.0 };
+        let bsdf = material.bsdf::<T, G>(&scene.textures, &scene.images, &surface, front, outside_ior);
+        let robust = settings.robustness;
+        let origin = scene.reflection_origin(&surface, front, robust.terminator, robust.offset_origins);
+        let behind = if bsdf.transmits() {
+            scene.reflection_origin(&surface, !front, false, robust.offset_origins)
+        } else {
+            origin
+        };
+        let strategy = if settings.importance_sampling { Strategy::Importance } else { Strategy::Uniform };
+        Self { wo: frame.to_local(wo_world), surface, front, frame, bsdf, strategy, origin, behind, media }
+    }
+
+    /// The ray leaving along shading-frame direction `wi`: world direction, origin, and
+    /// whether it crosses the surface. None for a transmitted direction that the shading
+    /// normal put on the arriving side of the actual surface.
+    pub(super) fn leave(&self, wi: Vec3) -> Option<(Vec3, Vec3, bool)> {
+        let d = self.frame.to_world(wi);
+        if wi.z >= 0.0 {
+            return Some((d, self.origin, false));
+        }
+        let ng = if self.front { self.surface.ng } else { -self.surface.ng };
+        (d.dot(ng) < 0.0).then_some((d, self.behind, true))
+    }
+
+    /// The volumes a ray leaving here is in.
+    pub(super) fn media_after(&self, scene: &Scene, crosses: bool) -> Media {
+        let mut media = self.media;
+        if crosses && scene.features.volumes && scene.materials[self.surface.material as usize].is_volume() {
+            media.cross(self.surface.material, self.front);
+        }
+        media
+    }
+
+    /// f |cos| towards world direction `wi`.
+    fn eval(&self, wi: Vec3) -> Vec3 {
+        self.bsdf.eval_cos(self.wo, self.frame.to_local(wi))
+    }
+}
+
 fn radiance<const E: bool, const P: bool, const T: bool, const G: bool>(
     scene: &Scene,
     settings: &Settings,
     mut ray: Ray,
     sampler: &mut Sampler,
 ) -> PathOutput {
-    let strategy = if settings.importance_sampling { Strategy::Importance } else { Strategy::Uniform };
     let mut radiance = Vec3::ZERO;
     let mut throughput = Vec3::ONE;
     let mut rays = 0u32;
     let mut prev: Option<PrevBounce> = None;
     let mut depth = 0u32;
+    let mut media = Media::default();
     let robust = settings.robustness;
     loop {
         rays += 1;
-        let Some(hit) = scene.geometry.intersect_with(&ray, robust.watertight) else { break };
+        let Some(hit) = scene.intersect(&ray, robust.watertight, depth == 0) else { break };
+        if scene.features.volumes {
+            throughput *= transmittance(media.sigma_a(&scene.materials), hit.t * ray.d.length());
+        }
         let surface = scene.surface(&hit);
-        let wo_world = -ray.d;
-        let front = surface.ng.dot(wo_world) > 0.0;
-        let material = &scene.materials[surface.material as usize];
+        let front = surface.ng.dot(ray.d) < 0.0;
 
         if E && front {
-            radiance += throughput * emitted::<T>(scene, settings, &surface, wo_world, hit.t, prev.map(|b| b.pdf));
+            radiance += throughput * emitted::<T>(scene, settings, &surface, -ray.d, hit.t, prev.map(|b| b.pdf));
         }
         if depth == settings.max_depth {
             break;
         }
-
-        let frame = shading_frame(&surface, front, wo_world);
-        let wo = frame.to_local(wo_world);
-        let bsdf = material.bsdf::<T, G>(&scene.textures, &scene.images, surface.uv);
-        let origin = scene.reflection_origin(&surface, front, robust.terminator, robust.offset_origins);
+        let vertex = Vertex::new::<T, G>(scene, settings, surface, ray.d, media);
 
         // Light sampling: one shadow ray towards a light chosen by power.
         if (E || P) && settings.light_sampling != LightSampling::Off {
-            let shade = Shading { surface: &surface, frame: &frame, wo, bsdf: &bsdf, strategy, origin };
-            let (l, traced) = sample_light::<E, P, T>(scene, settings, &shade, sampler);
+            let (l, traced) = sample_light::<E, P, T>(scene, settings, &vertex, sampler);
             check(NanCause::LightSample, l);
             radiance += throughput * l;
             rays += traced as u32;
@@ -193,12 +263,13 @@ fn radiance<const E: bool, const P: bool, const T: bool, const G: bool>(
         // BSDF sampling: the direction of the next segment.
         let u_lobe = sampler.next_1d();
         let u = sampler.next_2d();
-        let Some(bs) = bsdf.sample(wo, u_lobe, u, strategy) else { break };
+        let Some(bs) = vertex.bsdf.sample(vertex.wo, u_lobe, u, vertex.strategy) else { break };
         check(NanCause::BsdfSample, bs.weight);
-        let wi = frame.to_world(bs.wi);
+        let Some((d, origin, crosses)) = vertex.leave(bs.wi) else { break };
         throughput *= bs.weight;
         prev = Some(PrevBounce { pdf: bs.pdf });
-        ray = Ray { o: origin, d: wi, tmax: f32::INFINITY };
+        media = vertex.media_after(scene, crosses);
+        ray = Ray { o: origin, d, tmax: f32::INFINITY };
         depth += 1;
 
         // Termination: Russian roulette on the throughput, survival capped below 1.
@@ -214,22 +285,22 @@ fn radiance<const E: bool, const P: bool, const T: bool, const G: bool>(
     PathOutput { radiance, rays }
 }
 
-/// What light sampling needs to know about the shading point.
-pub(super) struct Shading<'a> {
-    pub(super) surface: &'a Surface,
-    pub(super) frame: &'a Frame,
-    pub(super) wo: Vec3,
-    pub(super) bsdf: &'a Bsdf,
-    pub(super) strategy: Strategy,
-    /// Origin of shadow rays (see `Scene::reflection_origin`).
-    pub(super) origin: Vec3,
-}
-
-impl Shading<'_> {
-    /// f |cos| towards world direction `wi`; zero below the shading hemisphere.
-    fn eval(&self, wi: Vec3) -> Vec3 {
-        self.bsdf.eval_cos(self.wo, self.frame.to_local(wi))
-    }
+/// The shadow ray from `vertex` towards `target` (a point, or a direction if None) along
+/// world direction `wi`, and the transmittance of the volume it runs through; None if `wi`
+/// leaves on a side the BSDF does not reach.
+fn shadow_ray(scene: &Scene, vertex: &Vertex, wi: Vec3, target: Option<Vec3>) -> Option<(Ray, Vec3)> {
+    let (_, origin, crosses) = vertex.leave(vertex.frame.to_local(wi))?;
+    let (d, tmax) = match target {
+        Some(t) => (t - origin, 1.0),
+        None => (wi, f32::INFINITY),
+    };
+    let tr = if scene.features.volumes {
+        let sigma = vertex.media_after(scene, crosses).sigma_a(&scene.materials);
+        transmittance(sigma, d.length() * tmax)
+    } else {
+        Vec3::ONE
+    };
+    Some((Ray { o: origin, d, tmax }, tr))
 }
 
 /// Direct light from one light chosen in proportion to power: the estimate and whether a
@@ -238,72 +309,73 @@ impl Shading<'_> {
 pub(super) fn sample_light<const E: bool, const P: bool, const T: bool>(
     scene: &Scene,
     settings: &Settings,
-    shade: &Shading,
+    vertex: &Vertex,
     sampler: &mut Sampler,
 ) -> (Vec3, bool) {
     let u_select = sampler.next_1d();
     let u = sampler.next_2d();
     let Some((light, pmf)) = scene.light_sampler.sample(u_select) else { return (Vec3::ZERO, false) };
+    let p = vertex.surface.p;
     match light {
         LightRef::Triangle(tri) if E => {
-            let p = scene.geometry.positions(tri);
-            let attrs = scene.geometry.attrs(tri);
+            let positions = scene.geometry.positions(tri);
             let b = warp::uniform_triangle(u);
-            let q = p[0] * b[0] + p[1] * b[1] + p[2] * b[2];
-            let to_light = q - shade.surface.p;
+            let emitter = scene.surface(&Hit { tri, t: 0.0, b });
+            let q = emitter.p;
+            let to_light = q - p;
             let dist2 = to_light.length_squared();
             let wi = to_light / dist2.sqrt();
-            let cos_light = -wi.dot(attrs.ng);
+            let cos_light = -wi.dot(emitter.ng);
             if cos_light <= 0.0 || !wi.is_finite() {
                 return (Vec3::ZERO, false);
             }
-            let f = shade.eval(wi);
+            let f = vertex.eval(wi);
             if f == Vec3::ZERO {
                 return (Vec3::ZERO, false);
             }
-            let material = &scene.materials[attrs.material as usize];
-            let uv = attrs.uvs[0] * b[0] + attrs.uvs[1] * b[1] + attrs.uvs[2] * b[2];
-            let le = material.emission::<T>(&scene.textures, &scene.images, uv);
+            let material = &scene.materials[emitter.material as usize];
+            let le = material.emission::<T>(&scene.textures, &scene.images, &emitter);
             let pdf = pmf * dist2 / (cos_light * scene.triangle_area(tri));
             let weight = match settings.light_sampling {
                 LightSampling::Mis => {
-                    power_heuristic(pdf, shade.bsdf.pdf(shade.wo, shade.frame.to_local(wi), shade.strategy))
+                    power_heuristic(pdf, vertex.bsdf.pdf(vertex.wo, vertex.frame.to_local(wi), vertex.strategy))
                 }
                 _ => 1.0,
             };
-            let origin = shade.origin;
             let target = if settings.robustness.offset_origins {
-                offset_ray_origin(q, interpolation_error(b, *p), attrs.ng, -wi)
+                offset_ray_origin(q, interpolation_error(b, *positions), emitter.ng, -wi)
             } else {
                 q
             };
-            let shadow = Ray { o: origin, d: target - origin, tmax: 1.0 };
-            if scene.geometry.occluded_with(&shadow, settings.robustness.watertight) {
+            let Some((shadow, tr)) = shadow_ray(scene, vertex, wi, Some(target)) else { return (Vec3::ZERO, false) };
+            if scene.occluded(&shadow, settings.robustness.watertight) {
                 return (Vec3::ZERO, true);
             }
-            (le * f * (weight / pdf), true)
+            (le * f * tr * (weight / pdf), true)
         }
         LightRef::Punctual(i) if P => {
             let light = &scene.lights[i as usize];
-            let (wi, arriving, tmax, target) = match light.kind {
-                PunctualKind::Directional => (-light.direction, light.intensity, f32::INFINITY, None),
+            let (wi, arriving, target) = match light.kind {
+                PunctualKind::Directional => (-light.direction, light.intensity, None),
                 _ => {
-                    let to_light = light.position - shade.surface.p;
+                    let to_light = light.position - p;
                     let dist2 = to_light.length_squared();
                     let wi = to_light / dist2.sqrt();
-                    (wi, light.intensity_towards(-wi) / dist2, 1.0, Some(light.position))
+                    (wi, light.intensity_towards(-wi) / dist2, Some(light.position))
                 }
             };
-            let f = shade.eval(wi);
-            if f == Vec3::ZERO || arriving == Vec3::ZERO || !wi.is_finite() {
+            if arriving == Vec3::ZERO || !wi.is_finite() {
                 return (Vec3::ZERO, false);
             }
-            let origin = shade.origin;
-            let d = target.map_or(wi, |t| t - origin);
-            if scene.geometry.occluded_with(&Ray { o: origin, d, tmax }, settings.robustness.watertight) {
+            let f = vertex.eval(wi);
+            if f == Vec3::ZERO {
+                return (Vec3::ZERO, false);
+            }
+            let Some((shadow, tr)) = shadow_ray(scene, vertex, wi, target) else { return (Vec3::ZERO, false) };
+            if scene.occluded(&shadow, settings.robustness.watertight) {
                 return (Vec3::ZERO, true);
             }
-            (arriving * f / pmf, true)
+            (arriving * f * tr / pmf, true)
         }
         _ => (Vec3::ZERO, false),
     }

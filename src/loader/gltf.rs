@@ -9,17 +9,28 @@ use crate::scene::{
     MeshDesc, SceneDesc,
     camera::Camera,
     light::{PunctualKind, PunctualLight},
-    material::Material,
+    material::{AlphaMode, Material, TexRef},
     texture::{Image, Texture, Wrap},
 };
-use glam::{DMat3, DMat4, DVec3, Vec2, Vec3};
+use glam::{Affine2, DMat3, DMat4, DVec3, Vec2, Vec3, Vec4};
+use gltf::json::Value;
 use gltf::{Document, Semantic, buffer, image, khr_lights_punctual::Kind, mesh::Mode, texture::WrappingMode};
 use std::collections::BTreeSet;
 use std::path::Path;
 
 /// Extensions whose every part that matters to shading is honoured.
-const SUPPORTED_EXTENSIONS: &[&str] =
-    &["KHR_materials_emissive_strength", "KHR_materials_specular", "KHR_materials_ior", "KHR_lights_punctual"];
+const SUPPORTED_EXTENSIONS: &[&str] = &[
+    "KHR_materials_emissive_strength",
+    "KHR_materials_specular",
+    "KHR_materials_ior",
+    "KHR_materials_transmission",
+    "KHR_materials_volume",
+    "KHR_materials_clearcoat",
+    "KHR_materials_sheen",
+    "KHR_texture_transform",
+    "KHR_lights_punctual",
+    "KHR_xmp",
+];
 
 /// Deepest node hierarchy accepted (guards against cyclic or absurd files).
 const MAX_NODE_DEPTH: usize = 256;
@@ -139,7 +150,8 @@ fn convert(
     let mut desc = SceneDesc { name, ..SceneDesc::default() };
     desc.images = images.into_iter().map(convert_image).collect();
     desc.textures = doc.textures().map(convert_texture).collect();
-    desc.materials = doc.materials().map(|m| convert_material(&m, &mut warnings)).collect();
+    let texture_count = desc.textures.len();
+    desc.materials = doc.materials().map(|m| convert_material(&m, texture_count, &mut warnings)).collect();
     let default_material = desc.materials.len() as u32;
 
     let scene = match doc.default_scene().or_else(|| doc.scenes().next()) {
@@ -161,7 +173,10 @@ fn convert(
         let world = parent * DMat4::from_cols_array_2d(&node.transform().matrix().map(|c| c.map(f64::from)));
         if let Some(mesh) = node.mesh() {
             for prim in mesh.primitives() {
-                if let Some((m, p)) = convert_primitive(&prim, buffers, world, default_material, &mut warnings)? {
+                let normal_mapped = prim.material().normal_texture().is_some();
+                if let Some((m, p)) =
+                    convert_primitive(&prim, buffers, world, default_material, normal_mapped, &mut warnings)?
+                {
                     placed.push((MeshDesc { name: mesh.name().unwrap_or("mesh").into(), ..m }, p));
                 }
             }
@@ -246,51 +261,155 @@ fn convert_texture(t: gltf::Texture) -> Texture {
     }
 }
 
-/// The texture behind a slot, with warnings for what the slot asks and we do not do yet.
-fn texture_ref(info: Option<gltf::texture::Info>, warnings: &mut Warnings) -> Option<u32> {
-    let info = info?;
-    if info.tex_coord() != 0 {
-        warnings.add("textures on TEXCOORD sets other than 0 are not supported yet: read from set 0");
-    }
-    if info.texture_transform().is_some() {
-        warnings.add("KHR_texture_transform is not supported yet: transforms ignored");
-    }
-    Some(info.texture().index() as u32)
+/// KHR_texture_transform as an affine map: translation x rotation x scale, rotating
+/// counter-clockwise in UV space (so that offset (0, 1), rotation pi/2, scale 0.5 picks the
+/// lower-left quadrant turned clockwise, as the extension's example says).
+fn uv_transform(offset: [f32; 2], rotation: f32, scale: [f32; 2]) -> Affine2 {
+    let (s, c) = rotation.sin_cos();
+    let rotate = Affine2::from_cols(Vec2::new(c, -s), Vec2::new(s, c), Vec2::ZERO);
+    Affine2::from_translation(Vec2::from(offset)) * rotate * Affine2::from_scale(Vec2::from(scale))
 }
 
-fn convert_material(m: &gltf::Material, warnings: &mut Warnings) -> Material {
-    let pbr = m.pbr_metallic_roughness();
-    let [r, g, b, _] = pbr.base_color_factor();
-    if m.normal_texture().is_some() {
-        warnings.add("normal textures are not supported yet: ignored");
+/// A texture slot given as raw JSON (textureInfo: index, texCoord, KHR_texture_transform).
+fn texture_json(info: Option<&Value>, texture_count: usize, warnings: &mut Warnings) -> Option<TexRef> {
+    let info = info?;
+    let index = info.get("index")?.as_u64()?;
+    if index as usize >= texture_count {
+        warnings.add(format!("texture index {index} is out of range: slot ignored"));
+        return None;
     }
+    let mut set = info.get("texCoord").and_then(Value::as_u64).unwrap_or(0);
+    let mut transform = Affine2::IDENTITY;
+    if let Some(t) = info.get("extensions").and_then(|e| e.get("KHR_texture_transform")) {
+        let pair = |key: &str, default: [f32; 2]| {
+            t.get(key)
+                .and_then(Value::as_array)
+                .map_or(default, |a| [0, 1].map(|i| a.get(i).and_then(Value::as_f64).map_or(default[i], |v| v as f32)))
+        };
+        let rotation = t.get("rotation").and_then(Value::as_f64).unwrap_or(0.0) as f32;
+        transform = uv_transform(pair("offset", [0.0, 0.0]), rotation, pair("scale", [1.0, 1.0]));
+        set = t.get("texCoord").and_then(Value::as_u64).unwrap_or(set);
+    }
+    if set > 1 {
+        warnings.add("textures on TEXCOORD sets above 1 are not supported: read from set 1");
+    }
+    Some(TexRef { texture: index as u32, set: set.min(1) as u8, transform })
+}
+
+/// A texture slot the gltf crate parsed.
+fn texture_ref(info: Option<gltf::texture::Info>, warnings: &mut Warnings) -> Option<TexRef> {
+    let info = info?;
+    let mut set = info.tex_coord();
+    let mut transform = Affine2::IDENTITY;
+    if let Some(t) = info.texture_transform() {
+        transform = uv_transform(t.offset(), t.rotation(), t.scale());
+        set = t.tex_coord().unwrap_or(set);
+    }
+    if set > 1 {
+        warnings.add("textures on TEXCOORD sets above 1 are not supported: read from set 1");
+    }
+    Some(TexRef { texture: info.texture().index() as u32, set: set.min(1) as u8, transform })
+}
+
+fn factor(v: &Value, key: &str, default: f32) -> f32 {
+    v.get(key).and_then(Value::as_f64).map_or(default, |f| f as f32)
+}
+
+fn convert_material(m: &gltf::Material, texture_count: usize, warnings: &mut Warnings) -> Material {
+    let pbr = m.pbr_metallic_roughness();
+    let [r, g, b, a] = pbr.base_color_factor();
     if m.occlusion_texture().is_some() {
         warnings.add("occlusion textures are ignored (a path tracer computes occlusion)");
     }
-    if m.alpha_mode() != gltf::material::AlphaMode::Opaque {
-        warnings.add("alpha modes MASK and BLEND are not supported yet: rendered opaque");
-    }
-    let (specular, specular_color) = match m.specular() {
-        Some(s) => {
-            if s.specular_texture().is_some() || s.specular_color_texture().is_some() {
-                warnings.add("KHR_materials_specular textures are not supported yet: factors used");
-            }
-            (s.specular_factor(), Vec3::from(s.specular_color_factor()))
-        }
-        None => (1.0, Vec3::ONE),
-    };
-    Material {
+    let mut mat = Material {
         name: m.name().map_or_else(|| format!("material {}", m.index().unwrap_or(0)), str::to_owned),
         base_color: Vec3::new(r, g, b),
+        alpha: a,
+        alpha_mode: match m.alpha_mode() {
+            gltf::material::AlphaMode::Opaque => AlphaMode::Opaque,
+            gltf::material::AlphaMode::Mask => AlphaMode::Mask(m.alpha_cutoff().unwrap_or(0.5)),
+            gltf::material::AlphaMode::Blend => AlphaMode::Blend,
+        },
+        double_sided: m.double_sided(),
         base_color_tex: texture_ref(pbr.base_color_texture(), warnings),
         metallic: pbr.metallic_factor(),
         roughness: pbr.roughness_factor(),
         metallic_roughness_tex: texture_ref(pbr.metallic_roughness_texture(), warnings),
         emissive: Vec3::from(m.emissive_factor()) * m.emissive_strength().unwrap_or(1.0),
         emissive_tex: texture_ref(m.emissive_texture(), warnings),
-        specular,
-        specular_color,
         ior: m.ior().unwrap_or(1.5),
+        ..Material::default()
+    };
+    if let Some(n) = m.normal_texture() {
+        let json = serde_json_value(&n);
+        mat.normal_tex = texture_json(Some(&json), texture_count, warnings);
+        mat.normal_scale = n.scale();
+    }
+    if let Some(s) = m.specular() {
+        mat.specular = s.specular_factor();
+        mat.specular_tex = texture_ref(s.specular_texture(), warnings);
+        mat.specular_color = Vec3::from(s.specular_color_factor());
+        mat.specular_color_tex = texture_ref(s.specular_color_texture(), warnings);
+    }
+    if let Some(t) = m.transmission() {
+        mat.transmission = t.transmission_factor();
+        mat.transmission_tex = texture_ref(t.transmission_texture(), warnings);
+    }
+    if let Some(v) = m.volume() {
+        if v.thickness_factor() > 0.0 {
+            let distance = v.attenuation_distance();
+            let color = Vec3::from(v.attenuation_color()).clamp(Vec3::splat(1e-6), Vec3::ONE);
+            let sigma =
+                if distance.is_finite() && distance > 0.0 { -color.map(f32::ln) / distance } else { Vec3::ZERO };
+            mat.volume = Some(sigma);
+        }
+    }
+    if let Some(c) = m.extension_value("KHR_materials_clearcoat") {
+        mat.clearcoat = factor(c, "clearcoatFactor", 0.0);
+        mat.clearcoat_tex = texture_json(c.get("clearcoatTexture"), texture_count, warnings);
+        mat.clearcoat_roughness = factor(c, "clearcoatRoughnessFactor", 0.0);
+        mat.clearcoat_roughness_tex = texture_json(c.get("clearcoatRoughnessTexture"), texture_count, warnings);
+        if c.get("clearcoatNormalTexture").is_some() {
+            warnings.add("clearcoat normal textures are not supported: the clearcoat uses the base normal");
+        }
+    }
+    if let Some(sh) = m.extension_value("KHR_materials_sheen") {
+        let color = sh.get("sheenColorFactor").and_then(Value::as_array).map_or(Vec3::ZERO, |a| {
+            Vec3::from_array([0, 1, 2].map(|i| a.get(i).and_then(Value::as_f64).unwrap_or(0.0) as f32))
+        });
+        mat.sheen_color = color;
+        mat.sheen_color_tex = texture_json(sh.get("sheenColorTexture"), texture_count, warnings);
+        mat.sheen_roughness = factor(sh, "sheenRoughnessFactor", 0.0);
+        mat.sheen_roughness_tex = texture_json(sh.get("sheenRoughnessTexture"), texture_count, warnings);
+    }
+    sanitise(&mut mat);
+    mat
+}
+
+/// The normal texture's textureInfo as JSON (the gltf crate has no KHR_texture_transform
+/// accessor for it).
+fn serde_json_value(n: &gltf::material::NormalTexture) -> Value {
+    let mut info = serde_json::json!({ "index": n.texture().index(), "texCoord": n.tex_coord() });
+    if let Some(t) = n.extension_value("KHR_texture_transform") {
+        info["extensions"] = serde_json::json!({ "KHR_texture_transform": t.clone() });
+    }
+    info
+}
+
+/// Clamps factors into their ranges; NaN (from hostile JSON) becomes the default.
+fn sanitise(m: &mut Material) {
+    let unit = |v: f32, default: f32| if v.is_nan() { default } else { v.clamp(0.0, 1.0) };
+    m.metallic = unit(m.metallic, 1.0);
+    m.roughness = unit(m.roughness, 1.0);
+    m.alpha = unit(m.alpha, 1.0);
+    m.specular = unit(m.specular, 1.0);
+    m.transmission = unit(m.transmission, 0.0);
+    m.clearcoat = unit(m.clearcoat, 0.0);
+    m.clearcoat_roughness = unit(m.clearcoat_roughness, 0.0);
+    m.sheen_roughness = unit(m.sheen_roughness, 0.0);
+    m.sheen_color = m.sheen_color.clamp(Vec3::ZERO, Vec3::ONE);
+    if !(m.ior.is_finite() && m.ior >= 1.0) {
+        m.ior = 1.5;
     }
 }
 
@@ -331,6 +450,8 @@ fn check_attribute_type(semantic: &Semantic, a: &gltf::Accessor) -> Result<(), S
     let ok = match semantic {
         Semantic::Positions | Semantic::Normals => dims == D::Vec3 && ty == T::F32,
         Semantic::TexCoords(_) => dims == D::Vec2 && matches!(ty, T::F32 | T::U8 | T::U16),
+        Semantic::Colors(_) => matches!(dims, D::Vec3 | D::Vec4) && matches!(ty, T::F32 | T::U8 | T::U16),
+        Semantic::Tangents => dims == D::Vec4 && ty == T::F32,
         Semantic::Weights(u32::MAX) => dims == D::Scalar && matches!(ty, T::U8 | T::U16 | T::U32),
         _ => true,
     };
@@ -346,6 +467,7 @@ fn convert_primitive(
     buffers: &[buffer::Data],
     world: DMat4,
     default_material: u32,
+    normal_mapped: bool,
     warnings: &mut Warnings,
 ) -> Result<Option<(MeshDesc, Vec<DVec3>)>, String> {
     let mode = prim.mode();
@@ -377,6 +499,17 @@ fn convert_primitive(
         None
     };
     let uvs = reader.read_tex_coords(0).map(|t| t.into_f32().map(Vec2::from).collect::<Vec<_>>());
+    let uvs1 = reader.read_tex_coords(1).map(|t| t.into_f32().map(Vec2::from).collect::<Vec<_>>());
+    let colors = reader.read_colors(0).map(|c| c.into_rgba_f32().map(Vec4::from).collect::<Vec<_>>());
+    let linear = DMat3::from_mat4(world);
+    let handedness = world.determinant().signum() as f32;
+    let tangents = reader.read_tangents().filter(|_| normal_mapped).map(|t| {
+        t.map(|v| {
+            let xyz = (linear * Vec3::new(v[0], v[1], v[2]).as_dvec3()).normalize_or_zero().as_vec3();
+            xyz.extend(v[3] * handedness)
+        })
+        .collect::<Vec<_>>()
+    });
     let raw: Vec<u32> = match reader.read_indices() {
         Some(i) => i.into_u32().collect(),
         None => (0..n as u32).collect(),
@@ -384,7 +517,13 @@ fn convert_primitive(
     if let Some(bad) = raw.iter().find(|&&i| i as usize >= n) {
         return Err(format!("index {bad} is out of range for a primitive with {n} vertices"));
     }
-    if normals.as_ref().is_some_and(|v| v.len() != n) || uvs.as_ref().is_some_and(|v| v.len() != n) {
+    let counts_differ = |len: Option<usize>| len.is_some_and(|l| l != n);
+    if counts_differ(normals.as_ref().map(Vec::len))
+        || counts_differ(uvs.as_ref().map(Vec::len))
+        || counts_differ(uvs1.as_ref().map(Vec::len))
+        || counts_differ(colors.as_ref().map(Vec::len))
+        || counts_differ(tangents.as_ref().map(Vec::len))
+    {
         return Err("vertex attributes of one primitive have different counts".into());
     }
     let mut indices = triangulate(mode, &raw);
@@ -392,7 +531,26 @@ fn convert_primitive(
         indices.chunks_exact_mut(3).for_each(|t| t.swap(1, 2));
     }
     let material = prim.material().index().map_or(default_material, |i| i as u32);
-    Ok(Some((MeshDesc { name: String::new(), positions: Vec::new(), normals, uvs, indices, material }, positions)))
+    let mesh = MeshDesc {
+        name: String::new(),
+        positions: Vec::new(),
+        normals,
+        uvs,
+        uvs1,
+        colors,
+        tangents,
+        indices,
+        material,
+    };
+    if normal_mapped && mesh.tangents.is_none() {
+        if mesh.uvs.is_none() {
+            warnings.add("a normal-mapped primitive has no TEXCOORD_0: normal map ignored");
+            return Ok(Some((mesh, positions)));
+        }
+        let (mesh, positions) = super::tangents::generate(mesh, positions);
+        return Ok(Some((mesh, positions)));
+    }
+    Ok(Some((mesh, positions)))
 }
 
 /// Triangle list from a list, strip or fan, keeping counter-clockwise front faces.

@@ -27,6 +27,17 @@ pub fn uniform_hemisphere(u: Vec2) -> Vec3 {
 /// Pdf (solid angle) of `uniform_hemisphere`: 1 / (2 pi).
 pub const UNIFORM_HEMISPHERE_PDF: f32 = 0.5 * FRAC_1_PI;
 
+/// Uniform direction on the unit sphere.
+pub fn uniform_sphere(u: Vec2) -> Vec3 {
+    let z = 1.0 - 2.0 * u.x;
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    let phi = 2.0 * std::f32::consts::PI * u.y;
+    Vec3::new(r * phi.cos(), r * phi.sin(), z)
+}
+
+/// Density of `uniform_sphere`: 1 / (4 pi).
+pub const UNIFORM_SPHERE_PDF: f32 = 0.25 * FRAC_1_PI;
+
 /// Concentric map of the unit square onto the unit disk (Shirley and Chiu 1997).
 pub fn concentric_disk(u: Vec2) -> Vec2 {
     let o = 2.0 * u - Vec2::ONE;

@@ -1,6 +1,6 @@
 //! Triangles in BVH order, obvhs's CWBVH over them, and a watertight ray/triangle test.
 
-use glam::{Vec2, Vec3, Vec3A};
+use glam::{Vec2, Vec3, Vec3A, Vec4};
 use obvhs::{
     BvhBuildParams,
     aabb::Aabb,
@@ -21,6 +21,18 @@ pub struct TriAttrs {
     pub ng: Vec3,
     /// Index into the scene's materials.
     pub material: u32,
+}
+
+/// Attributes only some scenes have, stored per triangle beside `TriAttrs` when any mesh
+/// has one of them.
+#[derive(Clone, Copy, Debug)]
+pub struct TriExtra {
+    /// Texture coordinates of set 1 (set 0 where the mesh has none).
+    pub uv1: [Vec2; 3],
+    /// Vertex colours (COLOR_0; white where the mesh has none).
+    pub colors: [Vec4; 3],
+    /// Tangents with the bitangent sign in w (zero where the mesh has no normal map).
+    pub tangents: [Vec4; 3],
 }
 
 /// A ray with origin, direction (any length) and a parametric interval [0, tmax).
@@ -50,6 +62,7 @@ pub struct Geometry {
     bvh: CwBvh,
     positions: Vec<[Vec3; 3]>,
     attrs: Vec<TriAttrs>,
+    extra: Vec<TriExtra>,
     /// Length of the direction handed to obvhs, so that its ray parameter is in units of
     /// 1e-5 of the scene's size (see `to_bvh_ray`).
     t_unit: f32,
@@ -61,8 +74,8 @@ impl Geometry {
     /// padded by a bound on the rounding of obvhs's slab test (1e-6 of its coordinates'
     /// magnitude plus 1e-7 of the scene's size): obvhs compares entry and exit with no
     /// tolerance, so a ray aimed exactly at a vertex on a box corner could otherwise miss
-    /// every box around it and slip through a closed mesh.
-    pub fn build(positions: Vec<[Vec3; 3]>, attrs: Vec<TriAttrs>) -> Self {
+    /// every box around it and slip through a closed mesh. `extra` is empty or one per triangle.
+    pub fn build(positions: Vec<[Vec3; 3]>, attrs: Vec<TriAttrs>, extra: Vec<TriExtra>) -> Self {
         let (lo, hi) = positions
             .iter()
             .flatten()
@@ -85,7 +98,8 @@ impl Geometry {
         let order = &bvh.primitive_indices;
         let positions = order.iter().map(|&i| positions[i as usize]).collect();
         let attrs = order.iter().map(|&i| attrs[i as usize]).collect();
-        Self { bvh, positions, attrs, t_unit }
+        let extra = if extra.is_empty() { extra } else { order.iter().map(|&i| extra[i as usize]).collect() };
+        Self { bvh, positions, attrs, extra, t_unit }
     }
 
     /// Number of triangles (in BVH order, so including any duplicated references).
@@ -108,6 +122,11 @@ impl Geometry {
         &self.attrs[i as usize]
     }
 
+    /// The optional attributes of triangle `i`, if the scene has any.
+    pub fn extra(&self, i: u32) -> Option<&TriExtra> {
+        self.extra.get(i as usize)
+    }
+
     /// Closest hit along the ray, if any (watertight test).
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
         self.intersect_with(ray, true)
@@ -121,45 +140,75 @@ impl Geometry {
     /// Closest hit along the ray with the watertight test, or with obvhs's Moller-Trumbore
     /// test when `watertight` is false (kept to measure and show what watertightness buys).
     pub fn intersect_with(&self, ray: &Ray, watertight: bool) -> Option<Hit> {
-        if self.is_empty() {
-            return None;
-        }
-        let (k, inv_k) = (self.t_unit, 1.0 / self.t_unit);
-        let bvh_ray = to_bvh_ray(ray, k);
-        let mut hit = RayHit::none();
-        if watertight {
-            let wt = Watertight::new(ray);
-            let found = self.bvh.ray_traverse(bvh_ray, &mut hit, |r, id| {
-                wt.intersect(&self.positions[id], r.tmax * k).map_or(f32::INFINITY, |(t, _)| t * inv_k)
-            });
-            if !found {
-                return None;
-            }
-            let (t, b) = wt.intersect(&self.positions[hit.primitive_id as usize], f32::INFINITY)?;
-            return Some(Hit { tri: hit.primitive_id, t, b });
-        }
-        if !self.bvh.ray_traverse(bvh_ray, &mut hit, |r, id| self.moller(id, r)) {
-            return None;
-        }
-        let p = &self.positions[hit.primitive_id as usize];
-        let t = hit.t * k;
-        Some(Hit { tri: hit.primitive_id, t, b: barycentrics(ray.o + t * ray.d, p) })
+        self.intersect_filtered(ray, watertight, |_, _| true)
     }
 
     /// Whether anything blocks the ray before `tmax`, with the test chosen as in `intersect_with`.
     pub fn occluded_with(&self, ray: &Ray, watertight: bool) -> bool {
+        self.occluded_filtered(ray, watertight, |_, _| true)
+    }
+
+    /// A candidate hit on triangle `id` at obvhs's parameter, or infinity if there is none
+    /// or `accept` (triangle, barycentrics) turns it down.
+    fn candidate(
+        &self,
+        ray: &Ray,
+        wt: &Watertight,
+        r: &BvhRay,
+        id: usize,
+        watertight: bool,
+        accept: &impl Fn(u32, [f32; 3]) -> bool,
+    ) -> f32 {
+        let (k, inv_k) = (self.t_unit, 1.0 / self.t_unit);
+        let found = if watertight {
+            wt.intersect(&self.positions[id], r.tmax * k).map(|(t, b)| (t * inv_k, b))
+        } else {
+            let t = self.moller(id, r);
+            (t < f32::INFINITY).then(|| (t, barycentrics(ray.o + t * k * ray.d, &self.positions[id])))
+        };
+        match found {
+            Some((t, b)) if accept(id as u32, b) => t,
+            _ => f32::INFINITY,
+        }
+    }
+
+    /// `intersect_with`, ignoring the hits `accept` (triangle, barycentrics) turns down.
+    pub fn intersect_filtered(
+        &self,
+        ray: &Ray,
+        watertight: bool,
+        accept: impl Fn(u32, [f32; 3]) -> bool,
+    ) -> Option<Hit> {
+        if self.is_empty() {
+            return None;
+        }
+        let k = self.t_unit;
+        let mut hit = RayHit::none();
+        let wt = Watertight::new(ray);
+        let found = self
+            .bvh
+            .ray_traverse(to_bvh_ray(ray, k), &mut hit, |r, id| self.candidate(ray, &wt, r, id, watertight, &accept));
+        if !found {
+            return None;
+        }
+        let p = &self.positions[hit.primitive_id as usize];
+        if watertight {
+            let (t, b) = wt.intersect(p, f32::INFINITY)?;
+            return Some(Hit { tri: hit.primitive_id, t, b });
+        }
+        let t = hit.t * k;
+        Some(Hit { tri: hit.primitive_id, t, b: barycentrics(ray.o + t * ray.d, p) })
+    }
+
+    /// `occluded_with`, ignoring the hits `accept` turns down.
+    pub fn occluded_filtered(&self, ray: &Ray, watertight: bool, accept: impl Fn(u32, [f32; 3]) -> bool) -> bool {
         if self.is_empty() {
             return false;
         }
-        let (k, inv_k) = (self.t_unit, 1.0 / self.t_unit);
-        let bvh_ray = to_bvh_ray(ray, k);
-        if watertight {
-            let wt = Watertight::new(ray);
-            return !self.bvh.ray_traverse_miss(bvh_ray, |r, id| {
-                wt.intersect(&self.positions[id], r.tmax * k).map_or(f32::INFINITY, |(t, _)| t * inv_k)
-            });
-        }
-        !self.bvh.ray_traverse_miss(bvh_ray, |r, id| self.moller(id, r))
+        let wt = Watertight::new(ray);
+        !self.bvh.ray_traverse_miss(to_bvh_ray(ray, self.t_unit), |r, id| {
+            self.candidate(ray, &wt, r, id, watertight, &accept)
+        })
     }
 
     /// obvhs's Moller-Trumbore test on triangle `id`, in obvhs's ray units; positive t only.
@@ -267,7 +316,7 @@ mod tests {
             [Vec3::new(-1., -1., 0.), Vec3::new(1., 1., 0.), Vec3::new(-1., 1., 0.)],
         ];
         let a = TriAttrs { normals: [Vec3::Z; 3], uvs: [Vec2::ZERO; 3], ng: Vec3::Z, material: 0 };
-        Geometry::build(p.to_vec(), vec![a; 2])
+        Geometry::build(p.to_vec(), vec![a; 2], Vec::new())
     }
 
     #[test]

@@ -1,38 +1,113 @@
-//! glTF metallic-roughness materials and their evaluation into a BSDF at a surface point.
+//! glTF materials (metallic-roughness with the KHR_materials_* extensions) and their
+//! evaluation into a BSDF at a surface point.
 
+use super::Surface;
 use super::texture::{ColorSpace, Image, Texture};
-use crate::bsdf::{Bsdf, Lambert, MetalRough};
-use glam::{Vec2, Vec3, Vec4Swizzles};
+use crate::bsdf::{Bsdf, Lambert, MetalRough, sheen::MIN_SHEEN_ALPHA};
+use glam::{Affine2, Vec2, Vec3, Vec4, Vec4Swizzles};
 
 /// Smallest GGX alpha: below it the lobe is numerically a mirror (pbrt-v4's "effectively
 /// smooth" threshold); roughness 0 is rendered with this alpha.
 pub const MIN_ALPHA: f32 = 1e-3;
+
+/// A material slot's texture: which texture, which TEXCOORD set, and the
+/// KHR_texture_transform applied to the coordinates.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TexRef {
+    /// Index into the scene's textures.
+    pub texture: u32,
+    /// TEXCOORD set (0 or 1).
+    pub set: u8,
+    /// Transform from mesh UVs to texture UVs (identity without the extension).
+    pub transform: Affine2,
+}
+
+impl TexRef {
+    /// A texture read through TEXCOORD_0 without transform.
+    pub fn plain(texture: u32) -> Self {
+        Self { texture, set: 0, transform: Affine2::IDENTITY }
+    }
+
+    /// Filtered lookup at the surface's texture coordinates.
+    pub fn sample(&self, textures: &[Texture], images: &[Image], uv: &[Vec2; 2], space: ColorSpace) -> Vec4 {
+        let uv = self.transform.transform_point2(uv[(self.set as usize).min(1)]);
+        textures[self.texture as usize].sample(images, uv, space)
+    }
+}
+
+/// How the base colour's alpha is used (glTF alphaMode).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum AlphaMode {
+    /// Alpha ignored.
+    Opaque,
+    /// Fully transparent below the cutoff, opaque otherwise.
+    Mask(f32),
+    /// Partly transparent: a ray passes with probability 1 - alpha.
+    Blend,
+}
 
 /// A glTF material as the renderer uses it.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Material {
     /// Name from the file (or generated).
     pub name: String,
-    /// Linear base colour factor (RGB; alpha unused so far).
+    /// Linear base colour factor (RGB).
     pub base_color: Vec3,
-    /// sRGB base colour texture.
-    pub base_color_tex: Option<u32>,
+    /// Base colour alpha factor.
+    pub alpha: f32,
+    /// What alpha means.
+    pub alpha_mode: AlphaMode,
+    /// Whether the back side is visible (glTF doubleSided).
+    pub double_sided: bool,
+    /// sRGB base colour texture (alpha in A).
+    pub base_color_tex: Option<TexRef>,
     /// Metalness factor in [0, 1].
     pub metallic: f32,
     /// Perceptual roughness factor in [0, 1]; GGX alpha = roughness^2.
     pub roughness: f32,
     /// Texture whose B channel scales metalness and G roughness.
-    pub metallic_roughness_tex: Option<u32>,
+    pub metallic_roughness_tex: Option<TexRef>,
+    /// Tangent-space normal map.
+    pub normal_tex: Option<TexRef>,
+    /// Scale of the normal map's X and Y.
+    pub normal_scale: f32,
     /// Emitted radiance: emissiveFactor x KHR_materials_emissive_strength, linear, used 1:1.
     pub emissive: Vec3,
     /// sRGB emissive texture, multiplied with `emissive`.
-    pub emissive_tex: Option<u32>,
+    pub emissive_tex: Option<TexRef>,
     /// KHR_materials_specular specularFactor (strength of the dielectric layer).
     pub specular: f32,
+    /// Texture whose A channel scales `specular`.
+    pub specular_tex: Option<TexRef>,
     /// KHR_materials_specular specularColorFactor (tints F0 of the dielectric layer).
     pub specular_color: Vec3,
-    /// Index of refraction of the dielectric layer (KHR_materials_ior; 1.5 by default).
+    /// sRGB texture scaling `specular_color`.
+    pub specular_color_tex: Option<TexRef>,
+    /// Index of refraction of the dielectric (KHR_materials_ior; 1.5 by default).
     pub ior: f32,
+    /// KHR_materials_transmission factor.
+    pub transmission: f32,
+    /// Texture whose R channel scales `transmission`.
+    pub transmission_tex: Option<TexRef>,
+    /// KHR_materials_volume: absorption coefficient per unit length inside the surface, from
+    /// attenuationColor and attenuationDistance; None for thin-walled materials.
+    pub volume: Option<Vec3>,
+    /// KHR_materials_clearcoat factor.
+    pub clearcoat: f32,
+    /// Texture whose R channel scales `clearcoat`.
+    pub clearcoat_tex: Option<TexRef>,
+    /// Clearcoat perceptual roughness.
+    pub clearcoat_roughness: f32,
+    /// Texture whose G channel scales `clearcoat_roughness`.
+    pub clearcoat_roughness_tex: Option<TexRef>,
+    /// KHR_materials_sheen colour (zero: no sheen).
+    pub sheen_color: Vec3,
+    /// sRGB texture scaling `sheen_color`.
+    pub sheen_color_tex: Option<TexRef>,
+    /// Sheen perceptual roughness.
+    pub sheen_roughness: f32,
+    /// Texture whose A channel scales `sheen_roughness`.
+    pub sheen_roughness_tex: Option<TexRef>,
 }
 
 impl Default for Material {
@@ -40,15 +115,33 @@ impl Default for Material {
         Self {
             name: "default".into(),
             base_color: Vec3::ONE,
+            alpha: 1.0,
+            alpha_mode: AlphaMode::Opaque,
+            double_sided: true,
             base_color_tex: None,
             metallic: 1.0,
             roughness: 1.0,
             metallic_roughness_tex: None,
+            normal_tex: None,
+            normal_scale: 1.0,
             emissive: Vec3::ZERO,
             emissive_tex: None,
             specular: 1.0,
+            specular_tex: None,
             specular_color: Vec3::ONE,
+            specular_color_tex: None,
             ior: 1.5,
+            transmission: 0.0,
+            transmission_tex: None,
+            volume: None,
+            clearcoat: 0.0,
+            clearcoat_tex: None,
+            clearcoat_roughness: 0.0,
+            clearcoat_roughness_tex: None,
+            sheen_color: Vec3::ZERO,
+            sheen_color_tex: None,
+            sheen_roughness: 0.0,
+            sheen_roughness_tex: None,
         }
     }
 }
@@ -59,9 +152,30 @@ impl Material {
         Self { name: name.into(), base_color: albedo, metallic: 0.0, specular: 0.0, ..Self::default() }
     }
 
-    /// Whether the BRDF has a GGX lobe (metal, or a dielectric layer with non-zero strength).
+    /// A smooth glass of index `ior` (a refracting volume with absorption `sigma_a`, or
+    /// thin-walled if None).
+    pub fn glass(name: &str, ior: f32, volume: Option<Vec3>) -> Self {
+        Self { name: name.into(), metallic: 0.0, roughness: 0.0, transmission: 1.0, ior, volume, ..Self::default() }
+    }
+
+    /// Whether the BSDF has more than a Lambertian lobe.
     pub fn is_glossy(&self) -> bool {
-        self.metallic > 0.0 || self.specular > 0.0
+        self.metallic > 0.0
+            || self.specular > 0.0
+            || self.is_transmissive()
+            || self.clearcoat > 0.0
+            || self.sheen_color.max_element() > 0.0
+    }
+
+    /// Whether light may pass through (KHR_materials_transmission on what is not all metal;
+    /// the metal-rough texture can make a metallic factor of 1 less).
+    pub fn is_transmissive(&self) -> bool {
+        self.transmission > 0.0 && (self.metallic < 1.0 || self.metallic_roughness_tex.is_some())
+    }
+
+    /// Whether paths that cross the surface enter a refracting, absorbing volume.
+    pub fn is_volume(&self) -> bool {
+        self.is_transmissive() && self.volume.is_some()
     }
 
     /// Whether the material emits light.
@@ -69,48 +183,110 @@ impl Material {
         self.emissive.max_element() > 0.0
     }
 
-    /// Whether any of its slots reads a texture.
-    pub fn is_textured(&self) -> bool {
-        self.base_color_tex.is_some() || self.metallic_roughness_tex.is_some() || self.emissive_tex.is_some()
+    /// Whether rays may pass through some of its points without interacting (alpha), or
+    /// through its back side (single-sided).
+    pub fn is_cutout(&self) -> bool {
+        self.alpha_mode != AlphaMode::Opaque || !self.double_sided
     }
 
-    /// The BSDF at texture coordinate `uv`. `TEXTURES` and `GLOSSY` are the scene's feature
-    /// switches: when off, texture lookups and the GGX lobe are compiled out.
+    fn textures(&self) -> [Option<TexRef>; 11] {
+        [
+            self.base_color_tex,
+            self.metallic_roughness_tex,
+            self.normal_tex,
+            self.emissive_tex,
+            self.specular_tex,
+            self.specular_color_tex,
+            self.transmission_tex,
+            self.clearcoat_tex,
+            self.clearcoat_roughness_tex,
+            self.sheen_color_tex,
+            self.sheen_roughness_tex,
+        ]
+    }
+
+    /// Whether any of its slots reads a texture.
+    pub fn is_textured(&self) -> bool {
+        self.textures().iter().any(Option::is_some)
+    }
+
+    /// Whether any slot reads TEXCOORD_1.
+    pub fn uses_second_uv_set(&self) -> bool {
+        self.textures().iter().flatten().any(|t| t.set == 1)
+    }
+
+    /// Opacity at a surface point: alpha factor x texture alpha x vertex colour alpha.
+    pub fn opacity(&self, textures: &[Texture], images: &[Image], surface: &Surface) -> f32 {
+        let tex = self.base_color_tex.map_or(1.0, |t| t.sample(textures, images, &surface.uv, ColorSpace::Srgb).w);
+        self.alpha * tex * surface.color.w
+    }
+
+    /// The BSDF at a surface point, seen from its front (`front`) or back side, with
+    /// `outside_ior` the index of the medium on the side away from this material's volume.
+    /// `TEXTURES` and `GLOSSY` are the scene's feature switches: when off, texture lookups
+    /// and every lobe but the Lambertian are compiled out.
     pub fn bsdf<const TEXTURES: bool, const GLOSSY: bool>(
         &self,
         textures: &[Texture],
         images: &[Image],
-        uv: Vec2,
+        surface: &Surface,
+        front: bool,
+        outside_ior: f32,
     ) -> Bsdf {
-        let mut base = self.base_color;
-        let (mut metallic, mut roughness) = (self.metallic, self.roughness);
-        if TEXTURES {
-            if let Some(t) = self.base_color_tex {
-                base *= textures[t as usize].sample(images, uv, ColorSpace::Srgb).xyz();
-            }
-            if let Some(t) = self.metallic_roughness_tex {
-                let mr = textures[t as usize].sample(images, uv, ColorSpace::Linear);
-                roughness *= mr.y;
-                metallic *= mr.z;
-            }
+        let mut base = self.base_color * surface.color.xyz();
+        let lookup =
+            |t: Option<TexRef>, space| t.filter(|_| TEXTURES).map(|t| t.sample(textures, images, &surface.uv, space));
+        if let Some(c) = lookup(self.base_color_tex, ColorSpace::Srgb) {
+            base *= c.xyz();
         }
         if !(GLOSSY && self.is_glossy()) {
             return Bsdf::Lambert(Lambert { albedo: base });
         }
+        let (mut metallic, mut roughness) = (self.metallic, self.roughness);
+        if let Some(mr) = lookup(self.metallic_roughness_tex, ColorSpace::Linear) {
+            roughness *= mr.y;
+            metallic *= mr.z;
+        }
+        let specular = self.specular * lookup(self.specular_tex, ColorSpace::Linear).map_or(1.0, |t| t.w);
+        let specular_tint = (self.specular_color
+            * lookup(self.specular_color_tex, ColorSpace::Srgb).map_or(Vec3::ONE, |t| t.xyz()))
+        .min(Vec3::ONE);
+        let transmission = self.transmission * lookup(self.transmission_tex, ColorSpace::Linear).map_or(1.0, |t| t.x);
+        let clearcoat = self.clearcoat * lookup(self.clearcoat_tex, ColorSpace::Linear).map_or(1.0, |t| t.x);
+        let clearcoat_roughness =
+            self.clearcoat_roughness * lookup(self.clearcoat_roughness_tex, ColorSpace::Linear).map_or(1.0, |t| t.y);
+        let sheen = self.sheen_color * lookup(self.sheen_color_tex, ColorSpace::Srgb).map_or(Vec3::ONE, |t| t.xyz());
+        let sheen_roughness =
+            self.sheen_roughness * lookup(self.sheen_roughness_tex, ColorSpace::Linear).map_or(1.0, |t| t.w);
         let f0 = ((self.ior - 1.0) / (self.ior + 1.0)).powi(2);
+        let ior = self.ior.max(1e-3);
+        let eta = match (self.volume, front) {
+            (None, _) => ior,
+            (Some(_), true) => ior / outside_ior,
+            (Some(_), false) => outside_ior / ior,
+        };
+        let alpha = |r: f32| (r * r).clamp(MIN_ALPHA, 1.0);
         Bsdf::MetalRough(MetalRough {
-            base,
+            base: base.clamp(Vec3::ZERO, Vec3::ONE),
             metallic: metallic.clamp(0.0, 1.0),
-            alpha: (roughness * roughness).clamp(MIN_ALPHA, 1.0),
-            dielectric_f0: (f0 * self.specular_color).min(Vec3::ONE),
-            specular: self.specular,
+            alpha: alpha(roughness),
+            dielectric_f0: (f0 * specular_tint).min(Vec3::ONE),
+            specular: specular.clamp(0.0, 1.0),
+            specular_tint,
+            transmission: transmission.clamp(0.0, 1.0),
+            eta,
+            thin: self.volume.is_none(),
+            clearcoat: clearcoat.clamp(0.0, 1.0),
+            clearcoat_alpha: alpha(clearcoat_roughness),
+            sheen: sheen.clamp(Vec3::ZERO, Vec3::ONE),
+            sheen_alpha: (sheen_roughness * sheen_roughness).clamp(MIN_SHEEN_ALPHA, 1.0),
         })
     }
 
-    /// Emitted radiance at `uv` (the same from every direction on the front side).
-    pub fn emission<const TEXTURES: bool>(&self, textures: &[Texture], images: &[Image], uv: Vec2) -> Vec3 {
+    /// Emitted radiance at a surface point (the same from every direction on the front side).
+    pub fn emission<const TEXTURES: bool>(&self, textures: &[Texture], images: &[Image], surface: &Surface) -> Vec3 {
         match self.emissive_tex {
-            Some(t) if TEXTURES => self.emissive * textures[t as usize].sample(images, uv, ColorSpace::Srgb).xyz(),
+            Some(t) if TEXTURES => self.emissive * t.sample(textures, images, &surface.uv, ColorSpace::Srgb).xyz(),
             _ => self.emissive,
         }
     }

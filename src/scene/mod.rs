@@ -14,10 +14,10 @@ use crate::math::{
     luminance,
 };
 use camera::Camera;
-use geometry::{Geometry, Hit, TriAttrs};
-use glam::{Vec2, Vec3};
+use geometry::{Geometry, Hit, Ray, TriAttrs, TriExtra};
+use glam::{Vec2, Vec3, Vec4, Vec4Swizzles};
 use light::{LightRef, LightSampler, PunctualLight};
-use material::Material;
+use material::{AlphaMode, Material};
 use shading::terminator_offset;
 use std::sync::Arc;
 use texture::{ColorSpace, Image, Texture};
@@ -34,11 +34,17 @@ pub struct Features {
     pub textures: bool,
     /// Some material has a GGX lobe (otherwise every surface is Lambertian).
     pub glossy: bool,
+    /// Some material lets paths into a refracting, absorbing volume (KHR_materials_volume):
+    /// paths then track the volumes they are in.
+    pub volumes: bool,
+    /// Some material has alpha or is single-sided: intersections consult the material.
+    pub cutouts: bool,
 }
 
 impl Features {
     /// Every effect switched on: the general kernel, for comparisons.
-    pub const ALL: Self = Self { emissive: true, punctual: true, textures: true, glossy: true };
+    pub const ALL: Self =
+        Self { emissive: true, punctual: true, textures: true, glossy: true, volumes: true, cutouts: true };
 }
 
 /// Largest vertex coordinate magnitude accepted: products of two coordinates (edge cross
@@ -60,6 +66,12 @@ pub struct MeshDesc {
     pub normals: Option<Vec<Vec3>>,
     /// Texture coordinates (set 0), if any.
     pub uvs: Option<Vec<Vec2>>,
+    /// Texture coordinates of set 1, if any.
+    pub uvs1: Option<Vec<Vec2>>,
+    /// Linear vertex colours (COLOR_0, RGBA), if any.
+    pub colors: Option<Vec<Vec4>>,
+    /// Tangents with the bitangent sign in w, if the mesh is normal-mapped.
+    pub tangents: Option<Vec<Vec4>>,
     /// Triangle list; counter-clockwise triangles face the viewer.
     pub indices: Vec<u32>,
     /// Index into the materials.
@@ -98,8 +110,10 @@ pub struct Surface {
     pub ng: Vec3,
     /// Unit interpolated shading normal.
     pub ns: Vec3,
-    /// Texture coordinates.
-    pub uv: Vec2,
+    /// Texture coordinates of sets 0 and 1.
+    pub uv: [Vec2; 2],
+    /// Vertex colour (white without COLOR_0).
+    pub color: Vec4,
     /// Material index.
     pub material: u32,
     /// Triangle index (BVH order).
@@ -144,6 +158,8 @@ impl Scene {
         }
         let mut positions = Vec::new();
         let mut attrs = Vec::new();
+        let mut extra = Vec::new();
+        let has_extra = meshes.iter().any(|m| m.uvs1.is_some() || m.colors.is_some() || m.tangents.is_some());
         let (mut dropped_bad, mut dropped_degenerate) = (0usize, 0usize);
         // Triangles with bad vertices or zero area are dropped: they cannot be hit or sampled.
         for mesh in &meshes {
@@ -176,6 +192,20 @@ impl Scene {
                 };
                 positions.push(p);
                 attrs.push(TriAttrs { normals, uvs, ng, material });
+                if has_extra {
+                    let per_vertex = |v: &Option<Vec<Vec4>>, default: Vec4| {
+                        idx.map(|i| {
+                            v.as_ref().and_then(|v| v.get(i)).copied().filter(|v| v.is_finite()).unwrap_or(default)
+                        })
+                    };
+                    let uv1 = match &mesh.uvs1 {
+                        Some(uv) => idx.map(|i| uv.get(i).copied().filter(|v| v.is_finite()).unwrap_or(Vec2::ZERO)),
+                        None => uvs,
+                    };
+                    let colors = per_vertex(&mesh.colors, Vec4::ONE);
+                    let tangents = per_vertex(&mesh.tangents, Vec4::ZERO);
+                    extra.push(TriExtra { uv1, colors, tangents });
+                }
             }
         }
         if dropped_bad > 0 {
@@ -191,7 +221,7 @@ impl Scene {
             .flatten()
             .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &v| (lo.min(v), hi.max(v)));
         let bounds = if positions.is_empty() { (Vec3::ZERO, Vec3::ZERO) } else { bounds };
-        let geometry = Arc::new(Geometry::build(positions, attrs));
+        let geometry = Arc::new(Geometry::build(positions, attrs, extra));
         let mut scene = Self {
             name,
             geometry,
@@ -242,10 +272,16 @@ impl Scene {
             punctual: !self.lights.is_empty(),
             textures: used.iter().any(|m| m.is_textured()),
             glossy: used.iter().any(|m| m.is_glossy()),
+            volumes: used.iter().any(|m| m.is_volume()),
+            cutouts: used.iter().any(|m| m.is_cutout()),
         };
         if self.features.glossy {
-            // Tabulate the GGX albedos here (on the loading thread), not in the first sample.
-            crate::bsdf::albedo::ggx_albedo(1.0, 1.0, 0.0);
+            // Tabulate the GGX albedos the materials' roughnesses read here (on the loading
+            // thread), not in the first samples; textured roughness fills in the rest lazily.
+            for m in used.iter().filter(|m| m.is_glossy()) {
+                crate::bsdf::albedo::prepare(m.roughness);
+                crate::bsdf::albedo::prepare(m.clearcoat_roughness);
+            }
         }
     }
 
@@ -262,22 +298,74 @@ impl Scene {
         0.5 * (self.bounds.1 - self.bounds.0).length()
     }
 
-    /// Surface data at a hit.
+    /// Surface data at a hit, with the material's normal map applied to the shading normal.
     pub fn surface(&self, hit: &Hit) -> Surface {
         let p = self.geometry.positions(hit.tri);
         let a = self.geometry.attrs(hit.tri);
         let b = hit.b;
+        let lerp = |v: [Vec4; 3]| v[0] * b[0] + v[1] * b[1] + v[2] * b[2];
         let pos = p[0] * b[0] + p[1] * b[1] + p[2] * b[2];
         let ns = (a.normals[0] * b[0] + a.normals[1] * b[1] + a.normals[2] * b[2]).normalize_or_zero();
-        Surface {
+        let uv0 = a.uvs[0] * b[0] + a.uvs[1] * b[1] + a.uvs[2] * b[2];
+        let extra = self.geometry.extra(hit.tri);
+        let mut surface = Surface {
             p: pos,
             p_error: interpolation_error(b, *p),
             ng: a.ng,
             ns: if ns == Vec3::ZERO { a.ng } else { ns },
-            uv: a.uvs[0] * b[0] + a.uvs[1] * b[1] + a.uvs[2] * b[2],
+            uv: [uv0, extra.map_or(uv0, |e| e.uv1[0] * b[0] + e.uv1[1] * b[1] + e.uv1[2] * b[2])],
+            color: extra.map_or(Vec4::ONE, |e| lerp(e.colors)),
             material: a.material,
             tri: hit.tri,
             b,
+        };
+        if let (Some(e), Some(map)) = (extra, self.materials[a.material as usize].normal_tex) {
+            let tangent = lerp(e.tangents);
+            let m = map.sample(&self.textures, &self.images, &surface.uv, ColorSpace::Linear).xyz() * 2.0 - 1.0;
+            let scale = self.materials[a.material as usize].normal_scale;
+            surface.ns = normal_mapped(surface.ns, tangent, m * Vec3::new(scale, scale, 1.0));
+        }
+        surface
+    }
+
+    /// Closest hit along the ray. Materials with alpha let rays through where they are
+    /// transparent; `camera` rays also pass the back of single-sided materials (what glTF's
+    /// doubleSided means for the picture: back-face culling). Only camera rays cull: a path
+    /// that turned into a closed single-sided mesh must still be stopped by its far side.
+    pub fn intersect(&self, ray: &Ray, watertight: bool, camera: bool) -> Option<Hit> {
+        if !self.features.cutouts {
+            return self.geometry.intersect_with(ray, watertight);
+        }
+        self.geometry.intersect_filtered(ray, watertight, |tri, b| self.blocks(ray, tri, b, camera))
+    }
+
+    /// Whether anything blocks the ray before `tmax` (alpha as in `intersect`).
+    pub fn occluded(&self, ray: &Ray, watertight: bool) -> bool {
+        if !self.features.cutouts {
+            return self.geometry.occluded_with(ray, watertight);
+        }
+        self.geometry.occluded_filtered(ray, watertight, |tri, b| self.blocks(ray, tri, b, false))
+    }
+
+    /// Whether a candidate hit counts. BLEND alpha is a coin flip hashed from the ray and the
+    /// triangle, so the same ray always gets the same answer (determinism).
+    fn blocks(&self, ray: &Ray, tri: u32, b: [f32; 3], camera: bool) -> bool {
+        let a = self.geometry.attrs(tri);
+        let m = &self.materials[a.material as usize];
+        if camera && !m.double_sided && !m.is_volume() && ray.d.dot(a.ng) > 0.0 {
+            return false;
+        }
+        if m.alpha_mode == AlphaMode::Opaque {
+            return true;
+        }
+        let opacity = m.opacity(&self.textures, &self.images, &self.surface(&Hit { tri, t: 0.0, b }));
+        match m.alpha_mode {
+            AlphaMode::Mask(cutoff) => opacity >= cutoff,
+            _ => {
+                let key = (ray.o.x.to_bits() as u64) << 32 | ray.d.y.to_bits() as u64;
+                let h = crate::math::sampler::hash3(key, (ray.d.x.to_bits() as u64) << 32 | tri as u64, 0xa1fa);
+                ((h >> 40) as f32 / (1u64 << 24) as f32) < opacity
+            }
         }
     }
 
@@ -313,6 +401,20 @@ impl Scene {
     }
 }
 
+/// The shading normal `n` perturbed by tangent-space normal `m` (glTF: +x along the
+/// tangent, +y along the bitangent sign x n x t); `n` itself where there is no tangent.
+fn normal_mapped(n: Vec3, tangent: Vec4, m: Vec3) -> Vec3 {
+    let t = tangent.xyz() - n * n.dot(tangent.xyz());
+    let t = t.normalize_or_zero();
+    if t == Vec3::ZERO || !m.is_finite() {
+        return n;
+    }
+    let sign = if tangent.w < 0.0 { -1.0 } else { 1.0 };
+    let bitangent = sign * n.cross(t);
+    let mapped = (t * m.x + bitangent * m.y + n * m.z).normalize_or_zero();
+    if mapped == Vec3::ZERO { n } else { mapped }
+}
+
 fn build_light_sampler(
     geometry: &Geometry,
     materials: &[Material],
@@ -324,9 +426,9 @@ fn build_light_sampler(
     let mean_emission: Vec<f32> = materials
         .iter()
         .map(|m| {
-            let tex = m
-                .emissive_tex
-                .map_or(Vec3::ONE, |t| images[textures[t as usize].image as usize].mean(ColorSpace::Srgb).truncate());
+            let tex = m.emissive_tex.map_or(Vec3::ONE, |t| {
+                images[textures[t.texture as usize].image as usize].mean(ColorSpace::Srgb).truncate()
+            });
             luminance(m.emissive * tex)
         })
         .collect();

@@ -30,5 +30,5 @@ pub fn uv_sphere(center: Vec3, radius: f32, stacks: u32, slices: u32, inward: bo
             indices.extend_from_slice(&quad);
         }
     }
-    MeshDesc { name: "sphere".into(), positions, normals: Some(normals), uvs: None, indices, material }
+    MeshDesc { name: "sphere".into(), positions, normals: Some(normals), indices, material, ..MeshDesc::default() }
 }

@@ -1,0 +1,134 @@
+//! A rough dielectric interface (Walter et al. 2007, in pbrt-v4's formulation): GGX
+//! microfacets reflect with the exact Fresnel probability and refract otherwise. A thin wall
+//! (no volume behind it) lets the refracted light out of its far side at once, along the
+//! mirror image of the reflection. In the local frame wo is on the +z side; `eta` is
+//! n_other / n_wo. Transmission carries the 1/eta^2 of radiance entering a denser medium.
+
+use super::microfacet::{Ggx, fresnel_dielectric, reflect, refract};
+use glam::{Vec2, Vec3};
+
+/// A dielectric boundary at one surface point.
+#[derive(Clone, Copy, Debug)]
+pub struct Interface {
+    /// GGX alpha of the microfacets.
+    pub alpha: f32,
+    /// Relative index of refraction n_other / n_wo.
+    pub eta: f32,
+    /// Thin-walled: transmitted light leaves the far side without bending.
+    pub thin: bool,
+    /// KHR_materials_specular factor: scales the Fresnel reflectance.
+    pub specular: f32,
+}
+
+/// Mirror image through the surface plane.
+fn flip(w: Vec3) -> Vec3 {
+    Vec3::new(w.x, w.y, -w.z)
+}
+
+impl Interface {
+    fn ggx(&self) -> Ggx {
+        Ggx { alpha: self.alpha }
+    }
+
+    /// Reflectance of a microfacet seen at cosine `cos` from wo's side.
+    fn reflectance(&self, cos: f32) -> f32 {
+        (self.specular * fresnel_dielectric(cos, self.eta)).clamp(0.0, 1.0)
+    }
+
+    /// Half vector of a refraction from wo into wi (wi.z < 0), facing +z; None if the pair
+    /// cannot be connected by a microfacet that faces wo and turns its back on wi.
+    fn refraction_half_vector(&self, wo: Vec3, wi: Vec3) -> Option<Vec3> {
+        let h = (wo + wi * self.eta).normalize_or_zero();
+        let h = if h.z < 0.0 { -h } else { h };
+        (h != Vec3::ZERO && wo.dot(h) > 0.0 && wi.dot(h) < 0.0).then_some(h)
+    }
+
+    /// f |cos theta_i| before tinting: reflection for wi.z > 0, transmission for wi.z < 0.
+    pub fn eval_cos(&self, wo: Vec3, wi: Vec3) -> f32 {
+        let ggx = self.ggx();
+        if wi.z == 0.0 || wo.z <= 0.0 {
+            return 0.0;
+        }
+        if wi.z > 0.0 || self.thin {
+            let transmitted = wi.z < 0.0;
+            let wr = if transmitted { flip(wi) } else { wi };
+            let h = (wo + wr).normalize_or_zero();
+            if h == Vec3::ZERO {
+                return 0.0;
+            }
+            let r = self.reflectance(wo.dot(h));
+            let share = if transmitted { 1.0 - r } else { r };
+            return share * ggx.d(h) * ggx.g2(wo, wr) / (4.0 * wo.z);
+        }
+        let Some(h) = self.refraction_half_vector(wo, wi) else { return 0.0 };
+        let (oh, ih) = (wo.dot(h), wi.dot(h));
+        let denom = (ih + oh / self.eta).powi(2);
+        let t = 1.0 - self.reflectance(oh);
+        t * ggx.d(h) * ggx.g2(wo, -wi) * (ih * oh).abs() / (wo.z * denom * self.eta * self.eta)
+    }
+
+    /// Solid-angle density of `sample`.
+    pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        let ggx = self.ggx();
+        if wi.z == 0.0 || wo.z <= 0.0 {
+            return 0.0;
+        }
+        if wi.z > 0.0 || self.thin {
+            let transmitted = wi.z < 0.0;
+            let wr = if transmitted { flip(wi) } else { wi };
+            let h = (wo + wr).normalize_or_zero();
+            if h == Vec3::ZERO {
+                return 0.0;
+            }
+            let oh = wo.dot(h);
+            let r = self.reflectance(oh);
+            let share = if transmitted { 1.0 - r } else { r };
+            return share * ggx.pdf_visible_normal(wo, h) / (4.0 * oh.abs());
+        }
+        let Some(h) = self.refraction_half_vector(wo, wi) else { return 0.0 };
+        let (oh, ih) = (wo.dot(h), wi.dot(h));
+        let denom = (ih + oh / self.eta).powi(2);
+        (1.0 - self.reflectance(oh)) * ggx.pdf_visible_normal(wo, h) * ih.abs() / denom
+    }
+
+    /// A visible microfacet from `u`, then reflection with probability F (decided by
+    /// `u_lobe`) or refraction. None for directions on the wrong side.
+    pub fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<Vec3> {
+        let h = self.ggx().sample_visible_normal(wo, u);
+        let r = self.reflectance(wo.dot(h));
+        let wi = if u_lobe < r {
+            reflect(wo, h)
+        } else if self.thin {
+            flip(reflect(wo, h))
+        } else {
+            refract(wo, h, self.eta)?
+        };
+        let reflected = u_lobe < r;
+        (if reflected { wi.z > 0.0 } else { wi.z < 0.0 }).then_some(wi)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fresnel_matches_normal_incidence_and_total_internal_reflection() {
+        assert!((fresnel_dielectric(1.0, 1.5) - 0.04).abs() < 1e-6);
+        assert!((fresnel_dielectric(1.0, 1.0 / 1.5) - 0.04).abs() < 1e-6);
+        // Critical angle from glass to air: sin = 1 / 1.5.
+        let critical = (1.0f32 - 1.0 / 2.25).sqrt();
+        assert_eq!(fresnel_dielectric(critical - 1e-3, 1.0 / 1.5), 1.0);
+        assert!(fresnel_dielectric(critical + 1e-3, 1.0 / 1.5) < 1.0);
+        assert_eq!(fresnel_dielectric(-1.0, 1.5), fresnel_dielectric(1.0, 1.0 / 1.5));
+    }
+
+    #[test]
+    fn refraction_obeys_snells_law() {
+        let wo = Vec3::new(0.6, 0.0, 0.8);
+        let wi = refract(wo, Vec3::Z, 1.5).unwrap();
+        assert!((wi.length() - 1.0).abs() < 1e-6);
+        assert!((-wi.x - 0.6 / 1.5).abs() < 1e-6 && wi.z < 0.0);
+        assert!(refract(Vec3::new(0.9, 0.0, 0.4359), Vec3::Z, 1.0 / 1.5).is_none());
+    }
+}
