@@ -355,14 +355,12 @@ fn convert_material(m: &gltf::Material, texture_count: usize, warnings: &mut War
         mat.transmission = t.transmission_factor();
         mat.transmission_tex = texture_ref(t.transmission_texture(), warnings);
     }
-    if let Some(v) = m.volume() {
-        if v.thickness_factor() > 0.0 {
-            let distance = v.attenuation_distance();
-            let color = Vec3::from(v.attenuation_color()).clamp(Vec3::splat(1e-6), Vec3::ONE);
-            let sigma =
-                if distance.is_finite() && distance > 0.0 { -color.map(f32::ln) / distance } else { Vec3::ZERO };
-            mat.volume = Some(sigma);
-        }
+    if let Some(v) = m.volume().filter(|v| v.thickness_factor() > 0.0) {
+        // Beer-Lambert: attenuationColor is what remains after attenuationDistance.
+        let distance = v.attenuation_distance();
+        let color = Vec3::from(v.attenuation_color()).clamp(Vec3::splat(1e-6), Vec3::ONE);
+        let sigma = if distance.is_finite() && distance > 0.0 { -color.map(f32::ln) / distance } else { Vec3::ZERO };
+        mat.volume = Some(sigma);
     }
     if let Some(c) = m.extension_value("KHR_materials_clearcoat") {
         mat.clearcoat = factor(c, "clearcoatFactor", 0.0);
