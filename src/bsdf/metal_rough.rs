@@ -116,8 +116,12 @@ impl MetalRough {
         self.alpha.sqrt()
     }
 
+    /// The transmitting interface. Between equal indices (eta 1) light goes straight through
+    /// whatever the microfacets, which is the thin wall's lobe; the refraction lobe's half
+    /// vector would be undefined there.
     fn interface(&self) -> Interface {
-        Interface { alpha: self.alpha, eta: self.eta, thin: self.thin, specular: self.specular }
+        let thin = self.thin || (self.eta - 1.0).abs() < 1e-3;
+        Interface { alpha: self.alpha, eta: self.eta, thin, specular: self.specular }
     }
 
     fn sheen_lobe(&self) -> Sheen {

@@ -25,14 +25,16 @@ impl Camera {
         Self { position: eye, rotation, yfov }
     }
 
-    /// A camera that frames the axis-aligned box [min, max] from its +z side.
+    /// A camera that frames the axis-aligned box [min, max] from its +z side, 20 degrees above
+    /// the horizon, so that a model lying flat in a coordinate plane is never seen edge-on.
     pub fn framing(min: Vec3, max: Vec3, aspect: f32) -> Self {
         let yfov = 0.8f32;
         let center = 0.5 * (min + max);
         let radius = (0.5 * (max - min).length()).max(f32::MIN_POSITIVE);
         let half = 0.5 * yfov.min(2.0 * ((0.5 * yfov).tan() * aspect).atan());
         let distance = radius / half.sin();
-        Self::look_at(center + Vec3::Z * distance, center, yfov)
+        let (sin, cos) = 20f32.to_radians().sin_cos();
+        Self::look_at(center + Vec3::new(0.0, sin, cos) * distance, center, yfov)
     }
 
     /// Generates primary rays for a `width` x `height` film.

@@ -447,3 +447,19 @@ fn build_light_sampler(
     }
     LightSampler::new(candidates, geometry.len())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn normal_maps_tilt_towards_the_tangent_and_mirrored_bitangents_flip() {
+        let m = Vec3::new(0.6, 0.0, 0.8);
+        assert!((normal_mapped(Vec3::Z, Vec4::new(1.0, 0.0, 0.0, 1.0), m) - m).length() < 1e-6);
+        let up = Vec3::new(0.0, 0.6, 0.8);
+        assert!((normal_mapped(Vec3::Z, Vec4::new(1.0, 0.0, 0.0, 1.0), up) - up).length() < 1e-6);
+        let flipped = normal_mapped(Vec3::Z, Vec4::new(1.0, 0.0, 0.0, -1.0), up);
+        assert!((flipped - Vec3::new(0.0, -0.6, 0.8)).length() < 1e-6, "{flipped}");
+        assert_eq!(normal_mapped(Vec3::Z, Vec4::ZERO, m), Vec3::Z, "no tangent: no mapping");
+    }
+}

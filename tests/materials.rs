@@ -1,0 +1,144 @@
+//! Materials in whole scenes: the Cornell glass scene (no NaN, a caustic under the glass
+//! sphere, the walls mirrored in the metal sphere), Beer-Lambert attenuation against
+//! thickness, alpha MASK and BLEND, single-sided culling and normal maps.
+
+mod common;
+
+use glam::Vec3;
+use lucent::integrator::Settings;
+use lucent::loader::gltf;
+use lucent::scene::{
+    MeshDesc, Scene, SceneDesc,
+    camera::Camera,
+    material::{AlphaMode, Material},
+};
+use std::sync::Arc;
+
+fn glass_scene() -> Arc<Scene> {
+    let desc = gltf::load(&common::shared().join("scenes/cornell-box-glass.gltf")).unwrap();
+    Arc::new(Scene::build(desc))
+}
+
+/// A point given in the file's coordinates (the box spans [0, 0.556] x [0, 0.549] x [0, 0.559]
+/// there; the loader centres the scene on its bounds).
+fn at(scene: &Scene, file: Vec3) -> Vec3 {
+    scene.bounds.0 + file
+}
+
+/// Luminance of the mean of an 8x8 image seen by a narrow camera from `eye` towards
+/// `target`, and its standard error from the spread of the pixel means (every pixel sees the
+/// same point, so they are independent estimates of one value).
+fn radiance(scene: &Arc<Scene>, eye: Vec3, target: Vec3, spp: u32) -> (f64, f64, Vec3) {
+    let camera = Camera::look_at(eye, target, 0.02);
+    let settings = Settings { width: 8, height: 8, target_spp: Some(spp), max_depth: 8, ..Settings::default() };
+    let snap = common::render(scene, camera, settings, None);
+    assert_eq!(snap.rejected, 0, "NaN/Inf samples");
+    let lum = |c: Vec3| (0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z) as f64;
+    let n = snap.mean.len() as f64;
+    let mean = snap.mean.iter().map(|&c| lum(c)).sum::<f64>() / n;
+    let var = snap.mean.iter().map(|&c| (lum(c) - mean).powi(2)).sum::<f64>() / (n - 1.0);
+    let colour = snap.mean.iter().copied().sum::<Vec3>() / n as f32;
+    (mean, (var / n).sqrt(), colour)
+}
+
+/// Radiance leaving the floor upwards at file coordinates (x, z), seen from 1 mm above.
+fn floor(scene: &Arc<Scene>, x: f32, z: f32) -> (f64, f64) {
+    let p = at(scene, Vec3::new(x, 0.0, z));
+    let (l, se, _) = radiance(scene, p + Vec3::new(0.0, 1e-3, 0.0), p + Vec3::new(0.0, 0.0, 1e-4), 1024);
+    (l, se)
+}
+
+#[test]
+fn cornell_glass_focuses_a_caustic_under_the_glass_sphere() {
+    let scene = glass_scene();
+    // The light is at the ceiling's centre; the glass sphere (r = 0.1) stands at (0.175, 0.19)
+    // and the mirror sphere at (0.38, 0.37). A ball lens of index 1.5 focuses 1.5 r from its
+    // centre, so the light through the glass lands as a spot around where the line from the
+    // light through the centre meets the floor; under the opaque mirror sphere is shadow.
+    let (glass, glass_se) = floor(&scene, 0.152, 0.170);
+    let (shadow, shadow_se) = floor(&scene, 0.40, 0.39);
+    let (open, open_se) = floor(&scene, 0.45, 0.10);
+    let z = common::sidak_z(0.01, 2);
+    assert!(glass - z * glass_se > 2.0 * (open + z * open_se), "caustic {glass} vs open floor {open}");
+    assert!(shadow + z * shadow_se < 0.5 * (open - z * open_se), "shadow {shadow} vs open floor {open}");
+}
+
+#[test]
+fn the_mirror_sphere_shows_the_red_and_green_walls() {
+    let scene = glass_scene();
+    // Looking at the mirror sphere's point facing a wall, along that point's normal: the
+    // reflection goes straight back, past the camera, to the wall.
+    let centre = Vec3::new(0.38, 0.101, 0.37);
+    for (normal, red) in [(Vec3::X, true), (-Vec3::X, false)] {
+        let p = at(&scene, centre + normal * 0.1);
+        let (_, _, c) = radiance(&scene, p + normal * 0.03, p, 64);
+        let (mine, other) = if red { (c.x, c.y) } else { (c.y, c.x) };
+        assert!(mine > 2.0 * other, "the {} wall in the mirror: {c}", if red { "red" } else { "green" });
+    }
+}
+
+/// A quad of half-size `h` in the plane z = `z`, facing +z (or -z).
+fn quad(z: f32, h: f32, facing_plus_z: bool, material: u32) -> MeshDesc {
+    let positions = vec![Vec3::new(-h, -h, z), Vec3::new(h, -h, z), Vec3::new(h, h, z), Vec3::new(-h, h, z)];
+    let indices = if facing_plus_z { vec![0, 1, 2, 0, 2, 3] } else { vec![0, 2, 1, 0, 3, 2] };
+    MeshDesc { name: "quad".into(), positions, indices, material, ..MeshDesc::default() }
+}
+
+/// A closed box [-1, 1]^2 x [z0, z1] with outward faces.
+fn slab(z0: f32, z1: f32, material: u32) -> MeshDesc {
+    let c = |i: u32| {
+        Vec3::new(
+            if i & 1 == 0 { -1.0 } else { 1.0 },
+            if i & 2 == 0 { -1.0 } else { 1.0 },
+            if i & 4 == 0 { z0 } else { z1 },
+        )
+    };
+    let faces: [[u32; 4]; 6] = [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]];
+    let indices = faces.iter().flat_map(|f| [f[0], f[1], f[2], f[0], f[2], f[3]]).collect();
+    MeshDesc { name: "slab".into(), positions: (0..8).map(c).collect(), indices, material, ..MeshDesc::default() }
+}
+
+/// An emitter of radiance 1 at z = -2 facing +z, seen from z = 5 through `meshes`.
+fn through(meshes: Vec<MeshDesc>, mut materials: Vec<Material>) -> (f64, f64) {
+    let light = materials.len() as u32;
+    materials.push(Material { emissive: Vec3::ONE, ..Material::lambert("light", Vec3::ZERO) });
+    let mut all = meshes;
+    all.push(quad(-2.0, 50.0, true, light));
+    let scene = Arc::new(Scene::build(SceneDesc { meshes: all, materials, ..SceneDesc::default() }));
+    let (l, se, _) = radiance(&scene, Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO, 256);
+    (l, se)
+}
+
+#[test]
+fn absorption_inside_a_volume_follows_beer_lambert() {
+    // Index-matched glass (ior 1: no Fresnel, no bending) absorbing sigma = 1 per unit.
+    let absorber = || vec![Material::glass("absorber", 1.0, Some(Vec3::ONE))];
+    let (thin, _) = through(vec![slab(0.0, 0.5, 0)], absorber());
+    let (thick, _) = through(vec![slab(0.0, 1.5, 0)], absorber());
+    assert!((thin - (-0.5f64).exp()).abs() < 2e-3, "0.5 units: {thin}");
+    assert!((thick - (-1.5f64).exp()).abs() < 2e-3, "1.5 units: {thick}");
+    assert!((thick / thin - (-1.0f64).exp()).abs() < 5e-3, "ratio {}", thick / thin);
+    // attenuationColor c after attenuationDistance d: sigma = -ln(c) / d, per channel.
+    let desc = gltf::load(&common::asset("AttenuationTest/glTF-Binary/AttenuationTest.glb")).unwrap();
+    let volumes: Vec<Vec3> = desc.materials.iter().filter_map(|m| m.volume).collect();
+    assert!(!volumes.is_empty() && volumes.iter().all(|s| s.is_finite() && s.min_element() >= 0.0));
+    assert!(volumes.iter().any(|s| s.max_element() > 0.0), "some volume absorbs: {volumes:?}");
+}
+
+#[test]
+fn alpha_lets_light_through_and_single_sided_backs_are_culled() {
+    let black = |alpha: f32, alpha_mode: AlphaMode, double_sided: bool| Material {
+        alpha,
+        alpha_mode,
+        double_sided,
+        ..Material::lambert("black", Vec3::ZERO)
+    };
+    let seen = |m: Material, facing_camera: bool| through(vec![quad(0.0, 10.0, facing_camera, 0)], vec![m]);
+    let (blend, se) = seen(black(0.3, AlphaMode::Blend, true), true);
+    let z = common::sidak_z(0.01, 1);
+    assert!((blend - 0.7).abs() < z * se + 1e-3, "BLEND alpha 0.3 passes 0.7: {blend} +- {se}");
+    assert_eq!(seen(black(0.4, AlphaMode::Mask(0.5), true), true).0, 1.0, "MASK below the cutoff passes");
+    assert_eq!(seen(black(0.6, AlphaMode::Mask(0.5), true), true).0, 0.0, "MASK above the cutoff blocks");
+    assert_eq!(seen(black(1.0, AlphaMode::Opaque, false), false).0, 1.0, "a single-sided back is culled");
+    assert_eq!(seen(black(1.0, AlphaMode::Opaque, true), false).0, 0.0, "a double-sided back is not");
+}
