@@ -20,6 +20,15 @@ pub struct Interface {
     pub specular: f32,
 }
 
+/// How a pair of directions is connected by one microfacet `h`, with the share of light
+/// (Fresnel's R or 1 - R) that goes that way.
+enum Connection {
+    /// Reflection, or a thin wall's transmission: `wr` is wi mirrored back above the surface.
+    Mirrored { h: Vec3, wr: Vec3, share: f32 },
+    /// Refraction; `denom` = (wi.h + wo.h / eta)^2 is the Jacobian's denominator.
+    Refracted { h: Vec3, oh: f32, ih: f32, denom: f32, share: f32 },
+}
+
 /// Mirror image through the surface plane.
 fn flip(w: Vec3) -> Vec3 {
     Vec3::new(w.x, w.y, -w.z)
@@ -43,52 +52,52 @@ impl Interface {
         (h != Vec3::ZERO && wo.dot(h) > 0.0 && wi.dot(h) < 0.0).then_some(h)
     }
 
-    /// f |cos theta_i| before tinting: reflection for wi.z > 0, transmission for wi.z < 0.
-    pub fn eval_cos(&self, wo: Vec3, wi: Vec3) -> f32 {
-        let ggx = self.ggx();
+    /// The microfacet that connects wo to wi, or None if none can.
+    fn connect(&self, wo: Vec3, wi: Vec3) -> Option<Connection> {
         if wi.z == 0.0 || wo.z <= 0.0 {
-            return 0.0;
+            return None;
         }
         if wi.z > 0.0 || self.thin {
             let transmitted = wi.z < 0.0;
             let wr = if transmitted { flip(wi) } else { wi };
             let h = (wo + wr).normalize_or_zero();
             if h == Vec3::ZERO {
-                return 0.0;
+                return None;
             }
             let r = self.reflectance(wo.dot(h));
             let share = if transmitted { 1.0 - r } else { r };
-            return share * ggx.d(h) * ggx.g2(wo, wr) / (4.0 * wo.z);
+            return Some(Connection::Mirrored { h, wr, share });
         }
-        let Some(h) = self.refraction_half_vector(wo, wi) else { return 0.0 };
+        let h = self.refraction_half_vector(wo, wi)?;
         let (oh, ih) = (wo.dot(h), wi.dot(h));
         let denom = (ih + oh / self.eta).powi(2);
-        let t = 1.0 - self.reflectance(oh);
-        t * ggx.d(h) * ggx.g2(wo, -wi) * (ih * oh).abs() / (wo.z * denom * self.eta * self.eta)
+        Some(Connection::Refracted { h, oh, ih, denom, share: 1.0 - self.reflectance(oh) })
+    }
+
+    /// f |cos theta_i| before tinting: reflection for wi.z > 0, transmission for wi.z < 0.
+    pub fn eval_cos(&self, wo: Vec3, wi: Vec3) -> f32 {
+        let ggx = self.ggx();
+        match self.connect(wo, wi) {
+            Some(Connection::Mirrored { h, wr, share }) => share * ggx.d(h) * ggx.g2(wo, wr) / (4.0 * wo.z),
+            Some(Connection::Refracted { h, oh, ih, denom, share }) => {
+                share * ggx.d(h) * ggx.g2(wo, -wi) * (ih * oh).abs() / (wo.z * denom * self.eta * self.eta)
+            }
+            None => 0.0,
+        }
     }
 
     /// Solid-angle density of `sample`.
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         let ggx = self.ggx();
-        if wi.z == 0.0 || wo.z <= 0.0 {
-            return 0.0;
-        }
-        if wi.z > 0.0 || self.thin {
-            let transmitted = wi.z < 0.0;
-            let wr = if transmitted { flip(wi) } else { wi };
-            let h = (wo + wr).normalize_or_zero();
-            if h == Vec3::ZERO {
-                return 0.0;
+        match self.connect(wo, wi) {
+            Some(Connection::Mirrored { h, share, .. }) => {
+                share * ggx.pdf_visible_normal(wo, h) / (4.0 * wo.dot(h).abs())
             }
-            let oh = wo.dot(h);
-            let r = self.reflectance(oh);
-            let share = if transmitted { 1.0 - r } else { r };
-            return share * ggx.pdf_visible_normal(wo, h) / (4.0 * oh.abs());
+            Some(Connection::Refracted { h, ih, denom, share, .. }) => {
+                share * ggx.pdf_visible_normal(wo, h) * ih.abs() / denom
+            }
+            None => 0.0,
         }
-        let Some(h) = self.refraction_half_vector(wo, wi) else { return 0.0 };
-        let (oh, ih) = (wo.dot(h), wi.dot(h));
-        let denom = (ih + oh / self.eta).powi(2);
-        (1.0 - self.reflectance(oh)) * ggx.pdf_visible_normal(wo, h) * ih.abs() / denom
     }
 
     /// A visible microfacet from `u`, then reflection with probability F (decided by
