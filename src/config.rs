@@ -4,7 +4,7 @@
 use crate::film::output::replace_file;
 use crate::film::tonemap::Display;
 use crate::integrator::Settings;
-use crate::scene::camera::Camera;
+use crate::scene::{camera::Camera, environment::EnvSettings};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
@@ -18,6 +18,8 @@ pub struct ViewFile {
     pub settings: Settings,
     /// Exposure and tone curve.
     pub display: Display,
+    /// What lights the scene from outside.
+    pub environment: EnvSettings,
 }
 
 impl ViewFile {
@@ -27,6 +29,7 @@ impl ViewFile {
         let text = std::fs::read_to_string(path).map_err(|e| fail(&e))?;
         let view: ViewFile = toml::from_str(&text).map_err(|e| fail(&e.message().replace('\n', " ")))?;
         view.settings.validate().map_err(|e| fail(&e))?;
+        view.environment.validate().map_err(|e| fail(&e))?;
         if let Some(c) = view.camera
             && !(c.position.is_finite() && c.rotation.is_finite() && c.yfov > 0.0 && c.yfov < std::f32::consts::PI)
         {
@@ -58,6 +61,12 @@ mod tests {
             camera: Some(Camera::look_at(Vec3::new(1.0, 2.0, 3.0), Vec3::ZERO, 0.7)),
             settings: Settings { light_sampling: LightSampling::Explicit, max_depth: 12, ..Settings::default() },
             display: Display { exposure: -1.5, tonemap: Tonemap::PbrNeutral },
+            environment: EnvSettings {
+                map: Some("sky.hdr".into()),
+                background: Vec3::new(0.1, 0.2, 0.3),
+                intensity: 2.0,
+                rotation: -45.0,
+            },
         };
         let path = dir.join("v.toml");
         view.save(&path).unwrap();
@@ -67,6 +76,8 @@ mod tests {
         std::fs::write(&path, "[settings]\nlight_sampling = \"sometimes\"\n").unwrap();
         let err = ViewFile::load(&path).unwrap_err();
         assert!(err.contains("v.toml") && !err.contains('\n'), "{err}");
+        std::fs::write(&path, "[environment]\nintensity = -1.0\n").unwrap();
+        assert!(ViewFile::load(&path).unwrap_err().contains("intensity"));
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }

@@ -4,10 +4,11 @@
 //! each bin, bins expecting fewer than 5 samples are pooled, and rejected samples are a bin
 //! of their own (expected: the pdf's missing mass). Family-wise significance 1% (Sidak).
 
+mod common;
+
 use glam::{UVec2, Vec3};
 use lucent::bsdf::{Bsdf, Lambert, MetalRough, Strategy};
 use lucent::math::sampler::Sampler;
-use statrs::distribution::{ChiSquared, ContinuousCDF};
 use std::f64::consts::PI;
 
 const THETA_BINS: usize = 32;
@@ -68,24 +69,7 @@ fn p_value(bsdf: &Bsdf, wo: Vec3, strategy: Strategy, pdf_strategy: Strategy, se
     }
     let total: f64 = expected[..bins].iter().sum();
     expected[bins] = (SAMPLES as f64 - total).max(0.0);
-    // Pool bins expecting fewer than 5 samples.
-    let (mut stat, mut dof, mut pooled_o, mut pooled_e) = (0.0, 0usize, 0.0, 0.0);
-    for (o, e) in observed.iter().zip(&expected) {
-        if *e < 5.0 {
-            pooled_o += o;
-            pooled_e += e;
-        } else {
-            stat += (o - e) * (o - e) / e;
-            dof += 1;
-        }
-    }
-    if pooled_e > 0.0 {
-        stat += (pooled_o - pooled_e) * (pooled_o - pooled_e) / pooled_e;
-        dof += 1;
-    } else {
-        assert_eq!(pooled_o, 0.0, "samples where the pdf is zero");
-    }
-    1.0 - ChiSquared::new((dof - 1) as f64).unwrap().cdf(stat)
+    common::chi2_p_value(&observed, &expected)
 }
 
 fn alpha(roughness: f32) -> f32 {

@@ -74,6 +74,9 @@ fn bad_input_gives_one_line_errors_and_no_file() {
     fails_in_one_line(&["render", "--time", "-1", "--out", o], "--time", &out);
     fails_in_one_line(&["render", "--clamp", "-2", "--out", o], "firefly clamp", &out);
     fails_in_one_line(&["render", "--without", "epsilons", "--out", o], "epsilons", &out);
+    fails_in_one_line(&["render", "--env", "/no/such/sky.hdr", "--out", o], "sky.hdr", &out);
+    fails_in_one_line(&["render", "--background", "1,1", "--env-intensity", "2", "--out", o], "three values", &out);
+    fails_in_one_line(&["render", "--background", "1,1,1", "--env-intensity", "-1", "--out", o], "intensity", &out);
     let drt = ["render", "--integrator", "distribution", "--branching", "64", "--max-depth", "4", "--out", o];
     fails_in_one_line(&drt, "--allow-expensive", &out);
     fails_in_one_line(&["render", "--out", dir.join("x.jpg").to_str().unwrap()], ".png or .exr", &dir.join("x.jpg"));
@@ -105,6 +108,24 @@ fn a_saved_view_renders_headless_and_options_override_it() {
     assert!(from_view.as_raw() == from_flags.as_raw(), "the view file sets the same image as the flags");
     let overridden = render(&["--view", view.to_str().unwrap(), "--max-depth", "3"], &dir.join("c.exr"));
     assert!(overridden.as_raw() != from_view.as_raw(), "--max-depth overrides the file");
+    // The environment is part of the view: the file and the flags light the box alike
+    // (through its open front), and differently from no environment.
+    let lit = dir.join("lit.toml");
+    let environment = lucent::scene::environment::EnvSettings {
+        background: glam::Vec3::new(0.2, 0.4, 0.8),
+        intensity: 2.0,
+        ..Default::default()
+    };
+    let settings = Settings { max_depth: 2, ..settings };
+    ViewFile { settings, environment, ..ViewFile::default() }.save(&lit).unwrap();
+    let env_view = render(&["--view", lit.to_str().unwrap()], &dir.join("e.exr"));
+    let env_flags = render(
+        &["--width", "24", "--height", "16", "--max-depth", "2", "--background", "0.2,0.4,0.8", "--env-intensity", "2"],
+        &dir.join("f.exr"),
+    );
+    let unlit = render(&["--width", "24", "--height", "16", "--max-depth", "2"], &dir.join("g.exr"));
+    assert!(env_view.as_raw() == env_flags.as_raw(), "the view file sets the same environment as the flags");
+    assert!(env_view.as_raw() != unlit.as_raw(), "the background lights the box");
     std::fs::write(&view, "[settings]\nwidth = \"wide\"\n").unwrap();
     let clean = out_dir("view-bad").join("d.png");
     fails_in_one_line(

@@ -112,6 +112,36 @@ fn views_save_and_load() {
     assert_eq!(other.settings.max_depth, 11);
 }
 
+#[test]
+fn the_environment_picker_offers_the_shared_maps_and_keeps_the_map_while_tuning() {
+    let mut state = viewer();
+    let venice = state
+        .environment_maps
+        .iter()
+        .find(|p| p.ends_with("venice_sunset_1k.hdr"))
+        .cloned()
+        .expect("the shared maps are offered");
+    let geometry = Arc::clone(&state.scene.geometry);
+    let mut env = state.environment.clone();
+    env.map = Some(venice);
+    state.set_environment(env.clone()).unwrap();
+    assert!(state.scene.features.environment && state.sync(), "a map lights the scene and restarts");
+    let map = Arc::clone(state.scene.environment.as_ref().unwrap().map().unwrap());
+    env.rotation = 30.0;
+    env.intensity = 0.5;
+    state.set_environment(env.clone()).unwrap();
+    let kept = state.scene.environment.as_ref().unwrap().map().unwrap();
+    assert!(Arc::ptr_eq(&map, kept) && Arc::ptr_eq(&geometry, &state.scene.geometry), "nothing is reloaded");
+    assert!(state.sync());
+    let bad = lucent::scene::environment::EnvSettings { map: Some("/no/such/sky.exr".into()), ..env.clone() };
+    let err = state.set_environment(bad).unwrap_err();
+    assert!(err.contains("sky.exr") && !err.contains('\n'), "{err}");
+    assert_eq!(state.environment, env, "the old environment stays");
+    env.intensity = 0.0;
+    state.set_environment(env).unwrap();
+    assert!(!state.scene.features.environment, "a black environment costs nothing");
+}
+
 fn xvfb_run() -> Option<PathBuf> {
     std::env::var_os("PATH")?.to_str()?.split(':').map(|d| Path::new(d).join("xvfb-run")).find(|p| p.exists())
 }

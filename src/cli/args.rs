@@ -3,7 +3,7 @@
 use crate::config::ViewFile;
 use crate::film::tonemap::{Display, Tonemap};
 use crate::integrator::{Directions, Integrator, LightSampling, PixelSampling, Robustness, SamplerKind, Settings};
-use crate::scene::camera::Camera;
+use crate::scene::{camera::Camera, environment::EnvSettings};
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use std::path::PathBuf;
 
@@ -123,6 +123,19 @@ pub struct RenderOptions {
     /// Switch off robustness mechanisms, to see what they prevent (comma-separated).
     #[arg(long, value_enum, value_delimiter = ',')]
     pub without: Vec<Mechanism>,
+    /// Equirectangular environment map (.hdr or .exr) lighting the scene from outside
+    /// (+y up; the map's centre is seen looking along -z).
+    #[arg(long)]
+    pub env: Option<PathBuf>,
+    /// Scale on the environment's radiance [default: 1].
+    #[arg(long, allow_negative_numbers = true)]
+    pub env_intensity: Option<f32>,
+    /// Rotation of the environment map about the up axis, in degrees [default: 0].
+    #[arg(long, allow_negative_numbers = true)]
+    pub env_rotation: Option<f32>,
+    /// Uniform background radiance R,G,B (linear) where no --env map is given [default: 0,0,0].
+    #[arg(long, value_delimiter = ',', num_args = 1, allow_negative_numbers = true)]
+    pub background: Option<Vec<f32>>,
 }
 
 /// A render setup resolved from a view file and the command line.
@@ -133,6 +146,8 @@ pub struct Resolved {
     pub display: Display,
     /// The camera from the view file, if any.
     pub camera: Option<Camera>,
+    /// What lights the scene from outside.
+    pub environment: EnvSettings,
 }
 
 impl RenderOptions {
@@ -174,7 +189,20 @@ impl RenderOptions {
         if !display.exposure.is_finite() {
             return Err("--exposure must be finite".into());
         }
-        Ok(Resolved { settings: s, display, camera: view.camera })
+        let mut environment = view.environment;
+        if let Some(map) = &self.env {
+            environment.map = Some(map.clone());
+        }
+        environment.intensity = self.env_intensity.unwrap_or(environment.intensity);
+        environment.rotation = self.env_rotation.unwrap_or(environment.rotation);
+        if let Some(b) = &self.background {
+            let [r, g, b] = b[..] else {
+                return Err(format!("--background needs three values R,G,B, not {}", b.len()));
+            };
+            environment.background = glam::Vec3::new(r, g, b);
+        }
+        environment.validate()?;
+        Ok(Resolved { settings: s, display, camera: view.camera, environment })
     }
 }
 

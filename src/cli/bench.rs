@@ -36,7 +36,7 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
         _ => args.scenes.iter().map(|p| Some(p.as_path())).collect(),
     };
     for path in scenes {
-        let scene = Arc::new(load_scene(path)?);
+        let scene = Arc::new(load_scene(path, &Default::default())?);
         println!(
             "{}: {} triangles, {s}x{s}, max depth 7, MIS, {} spp per run, {} runs each, {threads} threads",
             scene.name,

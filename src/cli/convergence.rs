@@ -76,7 +76,7 @@ pub fn run(args: &ConvergenceArgs) -> Result<(), String> {
         return Err(format!("--budget {} must be a positive number of seconds", args.budget));
     }
     std::fs::create_dir_all(&args.out).map_err(|e| format!("cannot create {}: {e}", args.out.display()))?;
-    let scene = Arc::new(load_scene(args.scene.as_deref())?);
+    let scene = Arc::new(load_scene(args.scene.as_deref(), &Default::default())?);
     let base = Settings {
         width: args.size,
         height: args.size,

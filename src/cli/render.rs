@@ -4,18 +4,24 @@ use super::args::RenderArgs;
 use crate::film::output::{check_writable, write_image};
 use crate::loader::{builtin, gltf};
 use crate::render::{Job, RenderSession, Snapshot};
-use crate::scene::Scene;
+use crate::scene::{
+    Scene,
+    environment::{EnvSettings, Environment},
+};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-/// Loads the scene named on the command line, or the built-in Cornell box; prints warnings.
-pub fn load_scene(path: Option<&std::path::Path>) -> Result<Scene, String> {
+/// Loads the scene named on the command line, or the built-in Cornell box, lit by
+/// `environment`; prints warnings.
+pub fn load_scene(path: Option<&std::path::Path>, environment: &EnvSettings) -> Result<Scene, String> {
+    let env = (!environment.is_black()).then(|| Environment::load(environment.clone())).transpose()?;
     let desc = match path {
         Some(p) => gltf::load(p).map_err(|e| e.to_string())?,
         None => builtin::cornell_box(),
     };
     let scene = Scene::build(desc);
+    let scene = if env.is_some() { scene.with_environment(env) } else { scene };
     for w in &scene.warnings {
         eprintln!("warning: {w}");
     }
@@ -45,7 +51,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         let per_pixel = target.map_or(String::new(), |n| format!(", {:.3e} per pixel at {n} spp", rays * n as f64));
         eprintln!("distribution ray tracing: up to {rays:.3e} rays per sample{per_pixel}");
     }
-    let scene = Arc::new(load_scene(args.scene.as_deref())?);
+    let scene = Arc::new(load_scene(args.scene.as_deref(), &resolved.environment)?);
     let camera =
         resolved.camera.unwrap_or_else(|| scene.default_camera(settings.width as f32 / settings.height as f32));
     let session = RenderSession::new(Job { scene: Arc::clone(&scene), camera, settings }, args.options.threads)

@@ -6,7 +6,7 @@
 //! tracer, with the direction scheme's density in the MIS weights.
 
 use super::media::{Media, transmittance};
-use super::path::{PathOutput, Vertex, emitted, sample_light};
+use super::path::{PathOutput, Vertex, emitted, escaped, sample_light};
 use super::settings::{Directions, LightSampling, Settings};
 use crate::bsdf::Bsdf;
 use crate::math::sampler::Sampler;
@@ -53,7 +53,9 @@ fn trace<const E: bool, const P: bool, const T: bool, const G: bool>(
     rays: &mut u32,
 ) -> Vec3 {
     *rays += 1;
-    let Some(hit) = scene.intersect(&ray, settings.robustness.watertight, depth == 0) else { return Vec3::ZERO };
+    let Some(hit) = scene.intersect(&ray, settings.robustness.watertight, depth == 0) else {
+        return if P { escaped(scene, settings, ray.d.normalize(), prev_pdf, &media) } else { Vec3::ZERO };
+    };
     let absorbed = if scene.features.volumes {
         transmittance(media.sigma_a(&scene.materials), hit.t * ray.d.length())
     } else {

@@ -42,8 +42,10 @@ macro_rules! kernels {
     };
 }
 
-/// The path-tracing kernel specialised for a feature set.
+/// The path-tracing kernel specialised for a feature set. `P` covers every light that is
+/// not an emissive triangle: punctual lights and the environment.
 pub fn kernel(features: Features) -> SampleFn {
+    let features = Features { punctual: features.punctual || features.environment, ..features };
     kernels!(features;
         (false, false, false, false), (false, false, false, true),
         (false, false, true, false), (false, false, true, true),
@@ -149,6 +151,24 @@ pub(super) fn emitted<const T: bool>(
     le * weight
 }
 
+/// Radiance from the environment along unit direction `d` of a ray that left the scene,
+/// sampled by the previous bounce with density `prev_pdf` (None for camera rays), weighted
+/// as `emitted` weights emitters, and attenuated by the volume the ray was in.
+pub(super) fn escaped(scene: &Scene, settings: &Settings, d: Vec3, prev_pdf: Option<f32>, media: &Media) -> Vec3 {
+    let Some(env) = &scene.environment else { return Vec3::ZERO };
+    let weight = match (settings.light_sampling, prev_pdf) {
+        (LightSampling::Off, _) | (_, None) => 1.0,
+        (LightSampling::Explicit, Some(_)) => 0.0,
+        (LightSampling::Mis, Some(pdf)) => power_heuristic(pdf, scene.light_sampler.environment_pmf() * env.pdf(d)),
+    };
+    if weight == 0.0 {
+        return Vec3::ZERO;
+    }
+    let le = env.radiance(d) * weight;
+    check(NanCause::Emission, le);
+    if scene.features.volumes { le * transmittance(media.sigma_a(&scene.materials), f32::INFINITY) } else { le }
+}
+
 /// A scattering event: the surface, its shading frame turned to the side the path arrived
 /// from, the BSDF there, where rays leave from, and the volumes the path is in.
 pub(super) struct Vertex {
@@ -237,7 +257,13 @@ fn radiance<const E: bool, const P: bool, const T: bool, const G: bool>(
     let robust = settings.robustness;
     loop {
         rays += 1;
-        let Some(hit) = scene.intersect(&ray, robust.watertight, depth == 0) else { break };
+        let Some(hit) = scene.intersect(&ray, robust.watertight, depth == 0) else {
+            if P {
+                let d = ray.d.normalize();
+                radiance += throughput * escaped(scene, settings, d, prev.map(|b| b.pdf), &media);
+            }
+            break;
+        };
         if scene.features.volumes {
             throughput *= transmittance(media.sigma_a(&scene.materials), hit.t * ray.d.length());
         }
@@ -312,7 +338,7 @@ pub(super) fn sample_light<const E: bool, const P: bool, const T: bool>(
     vertex: &Vertex,
     sampler: &mut Sampler,
 ) -> (Vec3, bool) {
-    let u_select = sampler.next_1d();
+    let u_select = sampler.next_2d();
     let u = sampler.next_2d();
     let Some((light, pmf)) = scene.light_sampler.sample(u_select) else { return (Vec3::ZERO, false) };
     let p = vertex.surface.p;
@@ -376,6 +402,26 @@ pub(super) fn sample_light<const E: bool, const P: bool, const T: bool>(
                 return (Vec3::ZERO, true);
             }
             (arriving * f * tr / pmf, true)
+        }
+        LightRef::Environment if P => {
+            let Some(env) = &scene.environment else { return (Vec3::ZERO, false) };
+            let Some((wi, le, pdf_dir)) = env.sample(u) else { return (Vec3::ZERO, false) };
+            let f = vertex.eval(wi);
+            if f == Vec3::ZERO || le == Vec3::ZERO {
+                return (Vec3::ZERO, false);
+            }
+            let pdf = pmf * pdf_dir;
+            let weight = match settings.light_sampling {
+                LightSampling::Mis => {
+                    power_heuristic(pdf, vertex.bsdf.pdf(vertex.wo, vertex.frame.to_local(wi), vertex.strategy))
+                }
+                _ => 1.0,
+            };
+            let Some((shadow, tr)) = shadow_ray(scene, vertex, wi, None) else { return (Vec3::ZERO, false) };
+            if scene.occluded(&shadow, settings.robustness.watertight) {
+                return (Vec3::ZERO, true);
+            }
+            (le * f * tr * (weight / pdf), true)
         }
         _ => (Vec3::ZERO, false),
     }

@@ -1,5 +1,7 @@
-//! Shared maths: orthonormal frames, sample warps with their pdfs, samplers and float error bounds.
+//! Shared maths: orthonormal frames, sample warps with their pdfs, samplers, discrete and
+//! piecewise-constant distributions, and float error bounds.
 
+pub mod distribution;
 pub mod float;
 pub mod frame;
 pub mod sampler;

@@ -1,8 +1,8 @@
 //! Lights: KHR_lights_punctual lights, and a sampler that picks among all lights
-//! (emissive triangles and punctual lights) in proportion to their power.
+//! (emissive triangles, punctual lights, the environment) in proportion to their power.
 
-use crate::math::luminance;
-use glam::Vec3;
+use crate::math::{distribution::AliasTable, luminance};
+use glam::{Vec2, Vec3};
 
 /// The kind of a KHR_lights_punctual light.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -64,21 +64,24 @@ impl PunctualLight {
 }
 
 /// One light the sampler can choose.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum LightRef {
     /// An emissive triangle (BVH order).
     Triangle(u32),
     /// A punctual light (index into the scene's punctual lights).
     Punctual(u32),
+    /// The environment.
+    Environment,
 }
 
-/// Chooses a light with probability proportional to its power (inverse-CDF lookup).
+/// Chooses a light with probability proportional to its power, in constant time (an alias
+/// table: scenes with many emissive triangles do not pay a binary search per shadow ray).
 #[derive(Default)]
 pub struct LightSampler {
     lights: Vec<LightRef>,
-    cdf: Vec<f32>,
-    pmf: Vec<f32>,
+    table: AliasTable,
     triangle_pmf: Vec<f32>,
+    environment_pmf: f32,
 }
 
 impl LightSampler {
@@ -86,26 +89,23 @@ impl LightSampler {
     /// never chosen. `triangle_count` sizes the per-triangle pmf lookup used by MIS.
     pub fn new(candidates: Vec<(LightRef, f32)>, triangle_count: usize) -> Self {
         let candidates: Vec<_> = candidates.into_iter().filter(|&(_, p)| p > 0.0 && p.is_finite()).collect();
-        let total: f64 = candidates.iter().map(|&(_, p)| p as f64).sum();
-        let mut sampler = Self::default();
-        if candidates.is_empty() {
-            return sampler;
-        }
-        let mut running = 0.0f64;
-        for &(light, power) in &candidates {
-            running += power as f64;
-            let pmf = (power as f64 / total) as f32;
+        let weights: Vec<f64> = candidates.iter().map(|&(_, p)| p as f64).collect();
+        let Some(table) = AliasTable::new(&weights) else { return Self::default() };
+        let mut sampler = Self { lights: Vec::with_capacity(candidates.len()), table, ..Self::default() };
+        for (i, &(light, _)) in candidates.iter().enumerate() {
             sampler.lights.push(light);
-            sampler.cdf.push((running / total) as f32);
-            sampler.pmf.push(pmf);
-            if let LightRef::Triangle(t) = light {
-                if sampler.triangle_pmf.is_empty() {
-                    sampler.triangle_pmf = vec![0.0; triangle_count];
+            let pmf = sampler.table.pmf(i);
+            match light {
+                LightRef::Triangle(t) => {
+                    if sampler.triangle_pmf.is_empty() {
+                        sampler.triangle_pmf = vec![0.0; triangle_count];
+                    }
+                    sampler.triangle_pmf[t as usize] = pmf;
                 }
-                sampler.triangle_pmf[t as usize] = pmf;
+                LightRef::Environment => sampler.environment_pmf = pmf,
+                LightRef::Punctual(_) => {}
             }
         }
-        *sampler.cdf.last_mut().expect("non-empty") = 1.0;
         sampler
     }
 
@@ -119,18 +119,23 @@ impl LightSampler {
         self.lights.len()
     }
 
-    /// Picks a light for the uniform number `u`; returns it with its probability.
-    pub fn sample(&self, u: f32) -> Option<(LightRef, f32)> {
+    /// Picks a light for the uniform numbers `u`; returns it with its probability.
+    pub fn sample(&self, u: Vec2) -> Option<(LightRef, f32)> {
         if self.lights.is_empty() {
             return None;
         }
-        let i = self.cdf.partition_point(|&c| c <= u).min(self.lights.len() - 1);
-        Some((self.lights[i], self.pmf[i]))
+        let (i, pmf) = self.table.sample(u);
+        Some((self.lights[i], pmf))
     }
 
     /// Probability that `sample` picks emissive triangle `tri` (0 for non-emitters).
     pub fn triangle_pmf(&self, tri: u32) -> f32 {
         self.triangle_pmf.get(tri as usize).copied().unwrap_or(0.0)
+    }
+
+    /// Probability that `sample` picks the environment.
+    pub fn environment_pmf(&self) -> f32 {
+        self.environment_pmf
     }
 }
 
@@ -141,15 +146,31 @@ mod tests {
     #[test]
     fn picks_lights_in_proportion_to_power() {
         let s = LightSampler::new(
-            vec![(LightRef::Triangle(0), 1.0), (LightRef::Punctual(0), 3.0), (LightRef::Triangle(2), 0.0)],
+            vec![
+                (LightRef::Triangle(0), 1.0),
+                (LightRef::Punctual(0), 2.0),
+                (LightRef::Triangle(2), 0.0),
+                (LightRef::Environment, 1.0),
+            ],
             3,
         );
-        assert_eq!(s.len(), 2);
-        assert_eq!(s.sample(0.1), Some((LightRef::Triangle(0), 0.25)));
-        assert_eq!(s.sample(0.3), Some((LightRef::Punctual(0), 0.75)));
-        assert_eq!(s.sample(0.999_999), Some((LightRef::Punctual(0), 0.75)));
+        assert_eq!(s.len(), 3);
+        let mut counts = std::collections::HashMap::new();
+        // A grid of midpoints with whole columns per light: the shares are exact.
+        let (nx, ny) = (3 * 64, 64);
+        for i in 0..nx {
+            for j in 0..ny {
+                let u = Vec2::new((i as f32 + 0.5) / nx as f32, (j as f32 + 0.5) / ny as f32);
+                let (light, pmf) = s.sample(u).unwrap();
+                assert_eq!(pmf, if light == LightRef::Punctual(0) { 0.5 } else { 0.25 });
+                *counts.entry(light).or_insert(0) += 1;
+            }
+        }
+        assert_eq!(counts[&LightRef::Punctual(0)], nx * ny / 2);
+        assert_eq!(counts[&LightRef::Environment], nx * ny / 4);
         assert_eq!(s.triangle_pmf(0), 0.25);
         assert_eq!(s.triangle_pmf(2), 0.0);
+        assert_eq!(s.environment_pmf(), 0.25);
     }
 
     #[test]

@@ -2,6 +2,7 @@
 //! set of effects it contains, which selects the integrator kernel.
 
 pub mod camera;
+pub mod environment;
 pub mod geometry;
 pub mod light;
 pub mod material;
@@ -14,6 +15,7 @@ use crate::math::{
     luminance,
 };
 use camera::Camera;
+use environment::Environment;
 use geometry::{Geometry, Hit, Ray, TriAttrs, TriExtra};
 use glam::{Vec2, Vec3, Vec4, Vec4Swizzles};
 use light::{LightRef, LightSampler, PunctualLight};
@@ -39,12 +41,21 @@ pub struct Features {
     pub volumes: bool,
     /// Some material has alpha or is single-sided: intersections consult the material.
     pub cutouts: bool,
+    /// Light arrives from an environment (a map or a background colour).
+    pub environment: bool,
 }
 
 impl Features {
     /// Every effect switched on: the general kernel, for comparisons.
-    pub const ALL: Self =
-        Self { emissive: true, punctual: true, textures: true, glossy: true, volumes: true, cutouts: true };
+    pub const ALL: Self = Self {
+        emissive: true,
+        punctual: true,
+        textures: true,
+        glossy: true,
+        volumes: true,
+        cutouts: true,
+        environment: true,
+    };
 }
 
 /// Largest vertex coordinate magnitude accepted: products of two coordinates (edge cross
@@ -136,6 +147,8 @@ pub struct Scene {
     pub images: Arc<Vec<Image>>,
     /// Punctual lights.
     pub lights: Vec<PunctualLight>,
+    /// Light from outside the scene, if any.
+    pub environment: Option<Environment>,
     /// Power-proportional choice among all lights.
     pub light_sampler: LightSampler,
     /// Named cameras from the file.
@@ -229,6 +242,7 @@ impl Scene {
             textures,
             images: Arc::new(images),
             lights,
+            environment: None,
             light_sampler: LightSampler::default(),
             cameras,
             bounds,
@@ -242,6 +256,15 @@ impl Scene {
     /// A copy with other materials and punctual lights, sharing the BVH and the images: only
     /// the light sampler and the feature set are rebuilt. Used by the viewer's editors.
     pub fn with_edits(&self, materials: Vec<Material>, lights: Vec<PunctualLight>) -> Self {
+        self.copy(materials, lights, self.environment.clone())
+    }
+
+    /// A copy lit by `environment` (None, or a black one, for no light from outside).
+    pub fn with_environment(&self, environment: Option<Environment>) -> Self {
+        self.copy(self.materials.clone(), self.lights.clone(), environment.filter(|e| !e.settings.is_black()))
+    }
+
+    fn copy(&self, materials: Vec<Material>, lights: Vec<PunctualLight>, environment: Option<Environment>) -> Self {
         let mut scene = Self {
             name: self.name.clone(),
             geometry: Arc::clone(&self.geometry),
@@ -249,6 +272,7 @@ impl Scene {
             textures: self.textures.clone(),
             images: Arc::clone(&self.images),
             lights,
+            environment,
             light_sampler: LightSampler::default(),
             cameras: self.cameras.clone(),
             bounds: self.bounds,
@@ -262,8 +286,9 @@ impl Scene {
     /// Rebuilds the light sampler and the feature set from the materials and lights.
     fn update_lighting(&mut self) {
         let (geometry, materials) = (&self.geometry, &self.materials);
+        let env = self.environment.as_ref().map(|e| e.power(self.radius()));
         self.light_sampler =
-            build_light_sampler(geometry, materials, &self.textures, &self.images, &self.lights, self.bounds);
+            build_light_sampler(geometry, materials, &self.textures, &self.images, &self.lights, self.bounds, env);
         let mut seen = vec![false; materials.len()];
         (0..geometry.len() as u32).for_each(|t| seen[geometry.attrs(t).material as usize] = true);
         let used: Vec<&Material> = materials.iter().zip(seen).filter(|(_, s)| *s).map(|(m, _)| m).collect();
@@ -274,6 +299,7 @@ impl Scene {
             glossy: used.iter().any(|m| m.is_glossy()),
             volumes: used.iter().any(|m| m.is_volume()),
             cutouts: used.iter().any(|m| m.is_cutout()),
+            environment: self.environment.is_some(),
         };
         if self.features.glossy {
             // Tabulate the GGX albedos the materials' roughnesses read here (on the loading
@@ -422,6 +448,7 @@ fn build_light_sampler(
     images: &[Image],
     lights: &[PunctualLight],
     bounds: (Vec3, Vec3),
+    environment_power: Option<f32>,
 ) -> LightSampler {
     let mean_emission: Vec<f32> = materials
         .iter()
@@ -444,6 +471,9 @@ fn build_light_sampler(
     let radius = 0.5 * (bounds.1 - bounds.0).length();
     for (i, l) in lights.iter().enumerate() {
         candidates.push((LightRef::Punctual(i as u32), l.power(radius)));
+    }
+    if let Some(power) = environment_power {
+        candidates.push((LightRef::Environment, power));
     }
     LightSampler::new(candidates, geometry.len())
 }

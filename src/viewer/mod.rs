@@ -42,7 +42,7 @@ pub fn run(args: &ViewArgs) -> Result<(), String> {
         return Err(format!("--screenshot {} must name a .png (the .exr is written beside it)", shot.display()));
     }
     let fixed = args.options.width.is_some() || args.options.height.is_some() || args.options.view.is_some();
-    let scene = load_scene(args.scene.as_deref())?;
+    let scene = load_scene(args.scene.as_deref(), &resolved.environment)?;
     let state = ViewerState::new(
         scene,
         args.scene.clone(),

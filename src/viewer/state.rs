@@ -10,7 +10,13 @@ use crate::film::tonemap::Display;
 use crate::integrator::Settings;
 use crate::loader::gltf;
 use crate::render::{Job, RenderSession, Snapshot};
-use crate::scene::{Scene, camera::Camera, light::PunctualLight, material::Material};
+use crate::scene::{
+    Scene,
+    camera::Camera,
+    environment::{EnvMap, EnvSettings, Environment},
+    light::PunctualLight,
+    material::Material,
+};
 use glam::{UVec2, Vec2, Vec3};
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
@@ -20,6 +26,9 @@ use std::time::{Duration, Instant};
 
 /// Divisor of the resolution while the camera moves (a quick preview that keeps up).
 const PREVIEW_DIVISOR: u32 = 4;
+
+/// Where the viewer looks for environment maps to offer (the project's shared assets).
+pub const ENVIRONMENT_DIR: &str = "../shared/assets/environments";
 
 /// A scene being loaded on its own thread.
 struct Loading {
@@ -91,6 +100,14 @@ pub struct ViewerState {
     pub open_path: String,
     /// Path of the view file to save or load.
     pub view_path: String,
+    /// The environment lighting the scene (kept while it is black, to edit it).
+    pub environment: EnvSettings,
+    /// Environment maps offered in the picker (found in `ENVIRONMENT_DIR`).
+    pub environment_maps: Vec<PathBuf>,
+    /// Path typed in the environment map field.
+    pub environment_path: String,
+    /// The last map loaded, reused while only intensity, rotation or background change.
+    environment_map: Option<(PathBuf, Arc<EnvMap>)>,
     loading: Option<Loading>,
     restarted: Instant,
     /// Times from a restart to the first image of the new job, and whether it was a preview.
@@ -117,6 +134,9 @@ impl ViewerState {
         let job = Job { scene: Arc::clone(&scene), camera: sent.camera, settings };
         let session = RenderSession::new_yielding(job, threads).map_err(|e| e.to_string())?;
         let fly_speed = 0.25 * scene.radius().max(1e-3);
+        let environment = scene.environment.as_ref().map_or_else(EnvSettings::default, |e| e.settings.clone());
+        let environment_map =
+            scene.environment.as_ref().and_then(|e| Some((e.settings.map.clone()?, e.map()?.clone())));
         Ok(Self {
             original: (scene.materials.clone(), scene.lights.clone()),
             scene,
@@ -140,6 +160,10 @@ impl ViewerState {
             screenshot_dir: ".".into(),
             open_path: String::new(),
             view_path: "view.toml".into(),
+            environment,
+            environment_maps: environment_maps(Path::new(ENVIRONMENT_DIR)),
+            environment_path: String::new(),
+            environment_map,
             loading: None,
             restarted: Instant::now(),
             latencies: Vec::new(),
@@ -255,6 +279,10 @@ impl ViewerState {
         self.loading = None;
         match result {
             Ok(scene) => {
+                let scene = match &self.scene.environment {
+                    Some(env) => scene.with_environment(Some(env.clone())),
+                    None => scene,
+                };
                 let scene = Arc::new(scene);
                 let aspect = self.aspect();
                 self.camera = controller_for(&scene, None, aspect);
@@ -283,6 +311,30 @@ impl ViewerState {
         if materials != self.scene.materials || lights != self.scene.lights {
             self.scene = Arc::new(self.scene.with_edits(materials, lights));
         }
+    }
+
+    /// Lights the scene with `settings`. A map is read only when its path changes; on error
+    /// (a missing or unreadable map, a bad value) the old environment stays.
+    pub fn set_environment(&mut self, settings: EnvSettings) -> Result<(), String> {
+        if settings == self.environment {
+            return Ok(());
+        }
+        settings.validate()?;
+        let map = match &settings.map {
+            None => None,
+            Some(path) => match &self.environment_map {
+                Some((p, map)) if p == path => Some(Arc::clone(map)),
+                _ => {
+                    let map = Arc::new(EnvMap::load(path)?);
+                    self.environment_map = Some((path.clone(), Arc::clone(&map)));
+                    Some(map)
+                }
+            },
+        };
+        let env = Environment::with_map(settings.clone(), map);
+        self.scene = Arc::new(self.scene.with_environment(Some(env)));
+        self.environment = settings;
+        Ok(())
     }
 
     /// Restores the materials and lights as the file has them.
@@ -387,13 +439,17 @@ impl ViewerState {
 
     /// Saves camera, settings and display to `view_path`.
     pub fn save_view(&self) -> Result<(), String> {
-        let view =
-            ViewFile { camera: Some(self.camera.camera()), settings: self.effective_settings(), display: self.display };
+        let view = ViewFile {
+            camera: Some(self.camera.camera()),
+            settings: self.effective_settings(),
+            display: self.display,
+            environment: self.environment.clone(),
+        };
         view.save(Path::new(&self.view_path))
     }
 
-    /// Loads camera, settings and display from `view_path` (the resolution keeps following
-    /// the window unless it is fixed).
+    /// Loads camera, settings, display and environment from `view_path` (the resolution
+    /// keeps following the window unless it is fixed).
     pub fn load_view(&mut self) -> Result<(), String> {
         let view = ViewFile::load(Path::new(&self.view_path))?;
         let aspect = self.aspect();
@@ -402,8 +458,19 @@ impl ViewerState {
         }
         self.settings = view.settings;
         self.display = view.display;
-        Ok(())
+        self.set_environment(view.environment)
     }
+}
+
+/// The .hdr and .exr files in `dir`, sorted (none if it does not exist).
+fn environment_maps(dir: &Path) -> Vec<PathBuf> {
+    let Ok(entries) = std::fs::read_dir(dir) else { return Vec::new() };
+    let mut maps: Vec<PathBuf> = entries
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|e| e.eq_ignore_ascii_case("hdr") || e.eq_ignore_ascii_case("exr")))
+        .collect();
+    maps.sort();
+    maps
 }
 
 /// A controller for `camera` (or the scene's default view), orbiting the scene's centre depth.

@@ -135,6 +135,7 @@ fn controls(ui: &mut Ui, state: &mut ViewerState, ui_state: &mut UiState) {
     });
     egui::CollapsingHeader::new("Convergence").default_open(true).show(ui, |ui| convergence(ui, state, ui_state));
     egui::CollapsingHeader::new("Camera").default_open(true).show(ui, |ui| camera(ui, state));
+    egui::CollapsingHeader::new("Environment").default_open(true).show(ui, |ui| environment(ui, state));
     egui::CollapsingHeader::new("Files").default_open(true).show(ui, |ui| files(ui, state));
 }
 
@@ -271,6 +272,35 @@ fn camera(ui: &mut Ui, state: &mut ViewerState) {
                 }
             }
         });
+    }
+}
+
+fn environment(ui: &mut Ui, state: &mut ViewerState) {
+    let mut env = state.environment.clone();
+    let name =
+        |p: &std::path::Path| p.file_name().map_or_else(|| p.display().to_string(), |n| n.to_string_lossy().into());
+    let shown = env.map.as_deref().map_or("none: background colour".into(), name);
+    egui::ComboBox::from_label("map").selected_text(shown).show_ui(ui, |ui| {
+        ui.selectable_value(&mut env.map, None, "none: background colour");
+        for path in &state.environment_maps {
+            ui.selectable_value(&mut env.map, Some(path.clone()), name(path));
+        }
+    });
+    ui.horizontal(|ui| {
+        ui.text_edit_singleline(&mut state.environment_path).on_hover_text("an equirectangular .hdr or .exr file");
+        if ui.button("Load map").clicked() && !state.environment_path.trim().is_empty() {
+            env.map = Some(state.environment_path.trim().into());
+        }
+    });
+    if env.map.is_none()
+        && let Some(b) = colour_and_amount(ui, env.background, "background", 0.0..=100.0)
+    {
+        env.background = b;
+    }
+    ui.add(egui::Slider::new(&mut env.intensity, 0.0..=100.0).logarithmic(true).text("intensity"));
+    ui.add(egui::Slider::new(&mut env.rotation, -180.0..=180.0).suffix("°").text("rotation"));
+    if let Err(e) = state.set_environment(env) {
+        state.error = Some(e);
     }
 }
 

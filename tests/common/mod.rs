@@ -5,7 +5,7 @@
 use lucent::integrator::Settings;
 use lucent::render::{Job, RenderSession, Snapshot};
 use lucent::scene::{Scene, camera::Camera};
-use statrs::distribution::{ContinuousCDF, Normal};
+use statrs::distribution::{ChiSquared, ContinuousCDF, Normal};
 use std::path::PathBuf;
 use std::sync::Arc;
 
@@ -31,4 +31,26 @@ pub fn render(scene: &Arc<Scene>, camera: Camera, settings: Settings, threads: O
 pub fn sidak_z(alpha: f64, tests: usize) -> f64 {
     let per_test = 1.0 - (1.0 - alpha).powf(1.0 / tests as f64);
     Normal::new(0.0, 1.0).unwrap().inverse_cdf(1.0 - per_test / 2.0)
+}
+
+/// Chi-square p-value of observed against expected bin counts; bins expecting fewer than 5
+/// samples are pooled into one (which must then be empty if it expects nothing).
+pub fn chi2_p_value(observed: &[f64], expected: &[f64]) -> f64 {
+    let (mut stat, mut dof, mut pooled_o, mut pooled_e) = (0.0, 0usize, 0.0, 0.0);
+    for (o, e) in observed.iter().zip(expected) {
+        if *e < 5.0 {
+            pooled_o += o;
+            pooled_e += e;
+        } else {
+            stat += (o - e) * (o - e) / e;
+            dof += 1;
+        }
+    }
+    if pooled_e > 0.0 {
+        stat += (pooled_o - pooled_e) * (pooled_o - pooled_e) / pooled_e;
+        dof += 1;
+    } else {
+        assert_eq!(pooled_o, 0.0, "samples where the pdf is zero");
+    }
+    1.0 - ChiSquared::new((dof - 1) as f64).unwrap().cdf(stat)
 }

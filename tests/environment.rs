@@ -1,0 +1,241 @@
+//! The environment light: its sampling density against a chi-square test, its orientation
+//! and rotation, an exact convex-object furnace under a uniform sky for every sampling
+//! switch, and agreement of BSDF sampling, light sampling and MIS under an HDR map.
+
+mod common;
+
+use glam::{UVec2, Vec3};
+use lucent::integrator::{Integrator, LightSampling, Settings};
+use lucent::math::sampler::Sampler;
+use lucent::render::Snapshot;
+use lucent::scene::{
+    MeshDesc, Scene, SceneDesc,
+    camera::Camera,
+    environment::{EnvSettings, Environment},
+    material::Material,
+    shapes::uv_sphere,
+};
+use std::f64::consts::PI;
+use std::sync::Arc;
+
+const THETA_BINS: usize = 32;
+const PHI_BINS: usize = 64;
+/// Midpoints per bin and axis: two per texel of a 1024 x 512 map, whose density is constant
+/// per texel, so the expected counts are exact for bins aligned with texels.
+const SUB: usize = 32;
+const SAMPLES: usize = 400_000;
+
+fn map(name: &str, rotation: f32) -> Environment {
+    let map = Some(common::asset(&format!("environments/{name}")));
+    Environment::load(EnvSettings { map, rotation, ..EnvSettings::default() }).expect("shared map loads")
+}
+
+/// World direction of polar angle `theta` from +y and azimuth `phi` from -z towards +x.
+fn direction(theta: f64, phi: f64) -> Vec3 {
+    let (st, ct) = theta.sin_cos();
+    Vec3::new((st * phi.sin()) as f32, ct as f32, (-st * phi.cos()) as f32)
+}
+
+#[test]
+fn the_map_density_passes_a_chi_square_test() {
+    // Rotations by a multiple of the texel width keep texels aligned with the bins.
+    let cases = [("venice_sunset_1k.hdr", 0.0), ("venice_sunset_1k.hdr", 90.0), ("royal_esplanade_1k.hdr", -45.0)];
+    let alpha = 1.0 - 0.99f64.powf(1.0 / cases.len() as f64);
+    for (name, rotation) in cases {
+        let env = map(name, rotation);
+        let (dt, dp) = (PI / THETA_BINS as f64, 2.0 * PI / PHI_BINS as f64);
+        let bins = THETA_BINS * PHI_BINS;
+        let mut observed = vec![0.0f64; bins + 1];
+        let mut sampler = Sampler::new(UVec2::new(3, 5), 0, 17);
+        let mut mismatched = 0;
+        for _ in 0..SAMPLES {
+            match env.sample(sampler.next_2d()) {
+                Some((d, le, pdf)) => {
+                    assert!((d.length() - 1.0).abs() < 1e-5 && pdf > 0.0 && le.is_finite(), "{d} {pdf}");
+                    mismatched += ((env.pdf(d) - pdf).abs() > 1e-3 * pdf) as usize;
+                    let theta = (d.y as f64).clamp(-1.0, 1.0).acos();
+                    let phi = (d.x as f64).atan2(-d.z as f64).rem_euclid(2.0 * PI);
+                    let (i, j) = (((theta / dt) as usize).min(THETA_BINS - 1), ((phi / dp) as usize).min(PHI_BINS - 1));
+                    observed[i * PHI_BINS + j] += 1.0;
+                }
+                None => observed[bins] += 1.0,
+            }
+        }
+        // Rounding may put a sample on a texel edge into its neighbour; that is all it may do.
+        assert!(mismatched * 1000 < SAMPLES, "{name}: {mismatched} samples whose pdf disagrees with pdf()");
+        let mut expected = vec![0.0f64; bins + 1];
+        for i in 0..THETA_BINS {
+            for j in 0..PHI_BINS {
+                let mut integral = 0.0;
+                for a in 0..SUB {
+                    for b in 0..SUB {
+                        let theta = (i as f64 + (a as f64 + 0.5) / SUB as f64) * dt;
+                        let phi = (j as f64 + (b as f64 + 0.5) / SUB as f64) * dp;
+                        integral += env.pdf(direction(theta, phi)) as f64 * theta.sin();
+                    }
+                }
+                expected[i * PHI_BINS + j] = integral * dt * dp / (SUB * SUB) as f64 * SAMPLES as f64;
+            }
+        }
+        let total: f64 = expected[..bins].iter().sum();
+        assert!((total / SAMPLES as f64 - 1.0).abs() < 1e-3, "{name}: the density integrates to {}", total / 4e5);
+        expected[bins] = (SAMPLES as f64 - total).max(0.0);
+        let p = common::chi2_p_value(&observed, &expected);
+        assert!(p > alpha, "{name} rotated {rotation}: chi-square p = {p:.2e}");
+    }
+}
+
+#[test]
+fn the_map_centre_is_seen_along_minus_z_with_the_sky_up_and_rotation_turns_it() {
+    // An 8 x 4 map: top half sky blue, bottom half ground brown, the right half (u > 1/2)
+    // with extra red. Written as EXR and read back through the loader.
+    let (w, h) = (8u32, 4u32);
+    let mut data = Vec::new();
+    for y in 0..h {
+        for x in 0..w {
+            let base = if y < h / 2 { [0.2, 0.4, 1.0] } else { [0.3, 0.2, 0.1] };
+            let red = if x >= w / 2 { 1.0 } else { 0.0 };
+            data.extend([base[0] + red, base[1], base[2]]);
+        }
+    }
+    let dir = std::env::temp_dir().join(format!("lucent-env-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("quadrants.exr");
+    image::Rgb32FImage::from_raw(w, h, data).unwrap().save(&path).unwrap();
+    let load = |rotation: f32| {
+        Environment::load(EnvSettings { map: Some(path.clone()), rotation, ..EnvSettings::default() }).unwrap()
+    };
+    let env = load(0.0);
+    let up = env.radiance(Vec3::Y);
+    assert!((up - Vec3::new(0.7, 0.4, 1.0)).length() < 1e-6, "straight up: sky, u wrapping: {up}");
+    assert_eq!(env.radiance(Vec3::NEG_Y).y, 0.2, "straight down: ground");
+    assert!(env.radiance(Vec3::new(1.0, 0.3, 0.0).normalize()).x > 1.0, "+x (right of -z) is u = 3/4");
+    assert!(env.radiance(Vec3::new(-1.0, 0.3, 0.0).normalize()).x < 0.3, "-x is u = 1/4");
+    let turned = load(180.0);
+    assert!(turned.radiance(Vec3::new(-1.0, 0.3, 0.0).normalize()).x > 1.0, "rotating by 180 swaps sides");
+    let scaled = Environment::load(EnvSettings { map: Some(path.clone()), intensity: 3.0, ..EnvSettings::default() });
+    assert!((scaled.unwrap().radiance(Vec3::NEG_Y).y - 0.6).abs() < 1e-6);
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+#[test]
+fn a_bad_map_is_a_one_line_error() {
+    let missing = EnvSettings { map: Some("/no/such/sky.hdr".into()), ..EnvSettings::default() };
+    let err = Environment::load(missing).err().unwrap();
+    assert!(err.contains("/no/such/sky.hdr") && !err.contains('\n'), "{err}");
+    let negative = EnvSettings { intensity: -1.0, background: Vec3::ONE, ..EnvSettings::default() };
+    assert!(Environment::load(negative).err().unwrap().contains("intensity"));
+}
+
+/// Mean of every pixel and its standard error, per channel.
+fn image_mean(snap: &Snapshot) -> [(f64, f64); 3] {
+    let n = snap.mean.len() as f64;
+    [0, 1, 2].map(|c| {
+        let mean = snap.mean.iter().map(|p| p[c] as f64).sum::<f64>() / n;
+        let se = snap.variance.iter().map(|v| v[c] as f64).sum::<f64>().sqrt() / n;
+        (mean, se)
+    })
+}
+
+#[test]
+fn a_convex_lambertian_under_a_uniform_sky_reflects_albedo_times_sky() {
+    // A flat-shaded convex polyhedron sees only the sky: L = albedo x background, exactly,
+    // for every way of sampling (BSDF, light, MIS; path tracing and DRT).
+    let sky = Vec3::new(0.6, 0.8, 1.0);
+    let mut sphere = uv_sphere(Vec3::ZERO, 1.0, 16, 32, false, 0);
+    sphere.normals = None;
+    let desc = SceneDesc {
+        name: "convex".into(),
+        meshes: vec![sphere],
+        materials: vec![Material::lambert("white", Vec3::splat(0.5))],
+        ..SceneDesc::default()
+    };
+    let env = Environment::load(EnvSettings { background: sky, ..EnvSettings::default() }).unwrap();
+    let scene = Arc::new(Scene::build(desc).with_environment(Some(env)));
+    assert!(scene.features.environment && scene.light_sampler.environment_pmf() == 1.0);
+    // The whole image lies inside the silhouette.
+    let camera = Camera::look_at(Vec3::new(0.3, 0.5, 3.0), Vec3::ZERO, 0.2);
+    let mut cases = Vec::new();
+    for importance in [true, false] {
+        for lights in [LightSampling::Off, LightSampling::Explicit, LightSampling::Mis] {
+            cases.push((Integrator::Path, importance, lights));
+        }
+    }
+    cases.push((Integrator::Distribution, true, LightSampling::Mis));
+    let z_max = common::sidak_z(1e-3, cases.len() * 3);
+    for (integrator, importance, lights) in cases {
+        let settings = Settings {
+            width: 24,
+            height: 24,
+            max_depth: 3,
+            integrator,
+            branching: 4,
+            importance_sampling: importance,
+            light_sampling: lights,
+            target_spp: Some(32),
+            ..Settings::default()
+        };
+        let snap = common::render(&scene, camera, settings, None);
+        assert_eq!(snap.rejected, 0);
+        for (c, (mean, se)) in image_mean(&snap).into_iter().enumerate() {
+            let expected = 0.5 * sky[c] as f64;
+            let label = format!("{integrator:?}, importance {importance}, {lights:?}, channel {c}");
+            if se == 0.0 {
+                // Cosine sampling of a uniform sky has zero variance: it must be exact.
+                assert!((mean - expected).abs() < 1e-5, "{label}: {mean} vs {expected}");
+            } else {
+                assert!((mean - expected).abs() < z_max * se, "{label}: {mean} vs {expected} (se {se:.1e})");
+            }
+        }
+    }
+}
+
+#[test]
+fn bsdf_sampling_light_sampling_and_mis_agree_under_an_hdr_sky() {
+    // A glossy sphere on a diffuse ground under the sunset map: the three estimators of
+    // the same integral must agree within their combined standard errors, and MIS must
+    // not be noisier than the worse of the two it combines.
+    let ground = MeshDesc {
+        name: "ground".into(),
+        positions: vec![
+            Vec3::new(-4.0, 0.0, -4.0),
+            Vec3::new(4.0, 0.0, -4.0),
+            Vec3::new(4.0, 0.0, 4.0),
+            Vec3::new(-4.0, 0.0, 4.0),
+        ],
+        indices: vec![0, 2, 1, 0, 3, 2],
+        material: 0,
+        ..MeshDesc::default()
+    };
+    let glossy = Material { metallic: 1.0, roughness: 0.35, ..Material::lambert("gold", Vec3::new(0.9, 0.7, 0.3)) };
+    let desc = SceneDesc {
+        name: "sphere on ground".into(),
+        meshes: vec![ground, uv_sphere(Vec3::new(0.0, 1.0, 0.0), 1.0, 32, 64, false, 1)],
+        materials: vec![Material::lambert("ground", Vec3::splat(0.5)), glossy],
+        ..SceneDesc::default()
+    };
+    let scene = Arc::new(Scene::build(desc).with_environment(Some(map("venice_sunset_1k.hdr", 0.0))));
+    let camera = Camera::look_at(Vec3::new(0.0, 2.0, 5.0), Vec3::new(0.0, 0.8, 0.0), 0.8);
+    let run = |lights| {
+        let settings = Settings {
+            width: 32,
+            height: 32,
+            max_depth: 4,
+            light_sampling: lights,
+            target_spp: Some(128),
+            ..Settings::default()
+        };
+        let snap = common::render(&scene, camera, settings, None);
+        assert_eq!(snap.rejected, 0, "{lights:?}: NaN/Inf samples");
+        image_mean(&snap)
+    };
+    let (off, explicit, mis) = (run(LightSampling::Off), run(LightSampling::Explicit), run(LightSampling::Mis));
+    let z_max = common::sidak_z(1e-3, 6);
+    for c in 0..3 {
+        for (label, other) in [("BSDF sampling", off[c]), ("light sampling", explicit[c])] {
+            let z = (other.0 - mis[c].0) / (other.1.powi(2) + mis[c].1.powi(2)).sqrt();
+            assert!(z.abs() < z_max, "{label} vs MIS, channel {c}: {} vs {} (z = {z:.2})", other.0, mis[c].0);
+        }
+        assert!(mis[c].1 <= off[c].1.max(explicit[c].1), "MIS se {} vs {} / {}", mis[c].1, off[c].1, explicit[c].1);
+    }
+}
