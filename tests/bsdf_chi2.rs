@@ -7,7 +7,7 @@
 mod common;
 
 use glam::{UVec2, Vec3};
-use lucent::bsdf::{Bsdf, Lambert, MetalRough, Strategy};
+use lucent::bsdf::{Bsdf, Lambert, MetalRough, Strategy, measured::MerlTable};
 use lucent::math::sampler::Sampler;
 use std::f64::consts::PI;
 
@@ -76,18 +76,18 @@ fn alpha(roughness: f32) -> f32 {
     (roughness * roughness).max(lucent::scene::material::MIN_ALPHA)
 }
 
-fn metal_rough(base: Vec3, metallic: f32, roughness: f32) -> Bsdf {
+fn metal_rough(base: Vec3, metallic: f32, roughness: f32) -> Bsdf<'static> {
     with_specular(base, metallic, roughness, 1.0)
 }
 
 /// The glTF BRDF with KHR_materials_specular weight `specular` and ior 1.5.
-fn with_specular(base: Vec3, metallic: f32, roughness: f32, specular: f32) -> Bsdf {
+fn with_specular(base: Vec3, metallic: f32, roughness: f32, specular: f32) -> Bsdf<'static> {
     Bsdf::MetalRough(MetalRough { base, metallic, alpha: alpha(roughness), specular, ..MetalRough::default() })
 }
 
 /// A white transmitting dielectric: a refracting interface with relative index `eta`, or a
 /// thin wall of index `eta`.
-fn glass(roughness: f32, eta: f32, thin: bool) -> Bsdf {
+fn glass(roughness: f32, eta: f32, thin: bool) -> Bsdf<'static> {
     Bsdf::MetalRough(MetalRough { alpha: alpha(roughness), transmission: 1.0, eta, thin, ..MetalRough::default() })
 }
 
@@ -157,6 +157,11 @@ fn sampling_routines_match_their_pdfs() {
         ..MetalRough::default()
     };
     cases.push(("every lobe at once".into(), Bsdf::MetalRough(everything), from_angles(0.8), Strategy::Importance));
+    let measured = MerlTable::read(&common::merl_bytes(common::analytic_brdf)).unwrap();
+    for theta_o in [0.3f32, 1.0, 1.4] {
+        let label = format!("measured (MERL table of a glossy BRDF), theta_o {theta_o}");
+        cases.push((label, Bsdf::Measured(&measured), from_angles(theta_o), Strategy::Importance));
+    }
     let alpha = 1.0 - (1.0 - 0.01f64).powf(1.0 / cases.len() as f64);
     let failures: Vec<String> = cases
         .iter()

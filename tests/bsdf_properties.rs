@@ -44,7 +44,7 @@ fn metal_rough() -> impl Strategy<Value = MetalRough> {
     )
 }
 
-fn bsdf() -> impl Strategy<Value = Bsdf> {
+fn bsdf() -> impl Strategy<Value = Bsdf<'static>> {
     prop_oneof![
         (0.0f32..=1.0).prop_map(|a| Bsdf::Lambert(Lambert { albedo: Vec3::splat(a) })),
         metal_rough().prop_map(Bsdf::MetalRough),

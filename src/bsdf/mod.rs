@@ -5,6 +5,7 @@
 pub mod albedo;
 mod dielectric;
 mod diffuse;
+pub mod measured;
 mod metal_rough;
 pub mod microfacet;
 pub mod sheen;
@@ -36,16 +37,19 @@ pub enum Strategy {
     Uniform,
 }
 
-/// The reflection models this renderer knows.
+/// The reflection models this renderer knows; measured ones borrow their table from the
+/// scene for `'a`.
 #[derive(Clone, Copy, Debug)]
-pub enum Bsdf {
+pub enum Bsdf<'a> {
     /// Ideal diffuse reflection.
     Lambert(Lambert),
     /// glTF metallic-roughness BRDF (spec Appendix B, with KHR_materials_specular).
     MetalRough(MetalRough),
+    /// A measured isotropic BRDF (MERL table).
+    Measured(&'a measured::MerlTable),
 }
 
-impl Bsdf {
+impl Bsdf<'_> {
     /// Whether light can pass through to the other side (wi below the surface).
     pub fn transmits(&self) -> bool {
         matches!(self, Bsdf::MetalRough(b) if b.transmits())
@@ -65,6 +69,7 @@ impl Bsdf {
         match self {
             Bsdf::Lambert(b) => b.eval_cos(wi),
             Bsdf::MetalRough(b) => b.eval_cos(wo, wi),
+            Bsdf::Measured(t) => t.eval(wo, wi) * wi.z,
         }
     }
 
@@ -78,6 +83,7 @@ impl Bsdf {
             (Strategy::Uniform, _) => warp::UNIFORM_HEMISPHERE_PDF,
             (Strategy::Importance, Bsdf::Lambert(_)) => warp::cos_hemisphere_pdf(wi.z),
             (Strategy::Importance, Bsdf::MetalRough(b)) => b.pdf(wo, wi),
+            (Strategy::Importance, Bsdf::Measured(t)) => t.pdf(wo, wi),
         }
     }
 
@@ -92,6 +98,7 @@ impl Bsdf {
             (Strategy::Uniform, _) => warp::uniform_hemisphere(u),
             (Strategy::Importance, Bsdf::Lambert(_)) => warp::cos_hemisphere(u),
             (Strategy::Importance, Bsdf::MetalRough(b)) => b.sample_direction(wo, u_lobe, u)?,
+            (Strategy::Importance, Bsdf::Measured(t)) => t.sample_direction(wo, u_lobe, u)?,
         };
         let pdf = self.pdf(wo, wi, strategy);
         let f = self.eval_cos(wo, wi);

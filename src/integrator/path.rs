@@ -171,14 +171,14 @@ pub(super) fn escaped(scene: &Scene, settings: &Settings, d: Vec3, prev_pdf: Opt
 
 /// A scattering event: the surface, its shading frame turned to the side the path arrived
 /// from, the BSDF there, where rays leave from, and the volumes the path is in.
-pub(super) struct Vertex {
+pub(super) struct Vertex<'a> {
     pub(super) surface: Surface,
     /// The path arrived on the front (glTF winding) side.
     pub(super) front: bool,
     pub(super) frame: Frame,
     /// Direction back along the arriving ray, in the shading frame.
     pub(super) wo: Vec3,
-    pub(super) bsdf: Bsdf,
+    pub(super) bsdf: Bsdf<'a>,
     pub(super) strategy: Strategy,
     /// Origin of rays leaving on the arriving side (see `Scene::reflection_origin`).
     pub(super) origin: Vec3,
@@ -188,10 +188,10 @@ pub(super) struct Vertex {
     pub(super) media: Media,
 }
 
-impl Vertex {
+impl<'a> Vertex<'a> {
     /// The vertex where a ray travelling along `d` meets `surface`.
     pub(super) fn new<const T: bool, const G: bool>(
-        scene: &Scene,
+        scene: &'a Scene,
         settings: &Settings,
         surface: Surface,
         d: Vec3,

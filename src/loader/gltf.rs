@@ -44,7 +44,9 @@ pub fn load(path: &Path) -> Result<SceneDesc, LoadError> {
     let bytes = std::fs::read(path).map_err(|e| fail(e.to_string()))?;
     let (doc, buffers, images) = import(&bytes, path.parent()).map_err(fail)?;
     let name = path.file_stem().map_or("scene".into(), |s| s.to_string_lossy().into_owned());
-    convert(&doc, &buffers, images, name).map_err(fail)
+    let mut desc = convert(&doc, &buffers, images, name).map_err(&fail)?;
+    super::sidecar::apply(&mut desc, path).map_err(fail)?;
+    Ok(desc)
 }
 
 /// Loads glTF from memory (embedded or GLB buffers only).

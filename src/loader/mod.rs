@@ -2,6 +2,7 @@
 
 pub mod builtin;
 pub mod gltf;
+pub mod sidecar;
 mod tangents;
 
 use std::path::PathBuf;

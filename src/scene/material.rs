@@ -3,7 +3,7 @@
 
 use super::Surface;
 use super::texture::{ColorSpace, Image, Texture};
-use crate::bsdf::{Bsdf, Lambert, MetalRough, sheen::MIN_SHEEN_ALPHA};
+use crate::bsdf::{Bsdf, Lambert, MetalRough, measured::MerlTable, sheen::MIN_SHEEN_ALPHA};
 use glam::{Affine2, Vec2, Vec3, Vec4, Vec4Swizzles};
 
 /// Smallest GGX alpha: below it the lobe is numerically a mirror (pbrt-v4's "effectively
@@ -108,6 +108,23 @@ pub struct Material {
     pub sheen_roughness: f32,
     /// Texture whose A channel scales `sheen_roughness`.
     pub sheen_roughness_tex: Option<TexRef>,
+    /// A measured BRDF replacing every lobe above (assigned by a sidecar file).
+    pub measured: Option<Measured>,
+}
+
+/// A measured BRDF table and the file it came from, shared by the materials using it.
+#[derive(Clone, Debug)]
+pub struct Measured {
+    /// The MERL .binary file.
+    pub path: std::path::PathBuf,
+    /// Its samples.
+    pub table: std::sync::Arc<MerlTable>,
+}
+
+impl PartialEq for Measured {
+    fn eq(&self, other: &Self) -> bool {
+        std::sync::Arc::ptr_eq(&self.table, &other.table)
+    }
 }
 
 impl Default for Material {
@@ -142,6 +159,7 @@ impl Default for Material {
             sheen_color_tex: None,
             sheen_roughness: 0.0,
             sheen_roughness_tex: None,
+            measured: None,
         }
     }
 }
@@ -168,9 +186,12 @@ impl Material {
     }
 
     /// Whether light may pass through (KHR_materials_transmission on what is not all metal;
-    /// the metal-rough texture can make a metallic factor of 1 less).
+    /// the metal-rough texture can make a metallic factor of 1 less). Measured BRDFs only
+    /// reflect.
     pub fn is_transmissive(&self) -> bool {
-        self.transmission > 0.0 && (self.metallic < 1.0 || self.metallic_roughness_tex.is_some())
+        self.measured.is_none()
+            && self.transmission > 0.0
+            && (self.metallic < 1.0 || self.metallic_roughness_tex.is_some())
     }
 
     /// Whether paths that cross the surface enter a refracting, absorbing volume.
@@ -232,7 +253,10 @@ impl Material {
         surface: &Surface,
         front: bool,
         outside_ior: f32,
-    ) -> Bsdf {
+    ) -> Bsdf<'_> {
+        if let Some(m) = &self.measured {
+            return Bsdf::Measured(&m.table);
+        }
         let mut base = self.base_color * surface.color.xyz();
         let lookup =
             |t: Option<TexRef>, space| t.filter(|_| TEXTURES).map(|t| t.sample(textures, images, &surface.uv, space));

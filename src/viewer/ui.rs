@@ -356,6 +356,9 @@ fn editors(ui: &mut Ui, state: &mut ViewerState) {
     if let Some(index) = state.selected {
         let mut m = state.scene.materials[index as usize].clone();
         ui.heading(format!("Material: {}", m.name));
+        if let Some(measured) = &m.measured {
+            ui.label(format!("measured BRDF {} (replaces the parameters below)", measured.path.display()));
+        }
         let mut base = m.base_color.to_array();
         ui.horizontal(|ui| {
             ui.color_edit_button_rgb(&mut base);

@@ -54,3 +54,55 @@ pub fn chi2_p_value(observed: &[f64], expected: &[f64]) -> f64 {
     }
     1.0 - ChiSquared::new((dof - 1) as f64).unwrap().cdf(stat)
 }
+
+/// (theta_half, theta_diff, phi_diff) at the centre of MERL cell (i, j, k).
+pub fn merl_cell_centre(i: usize, j: usize, k: usize) -> (f64, f64, f64) {
+    use std::f64::consts::{FRAC_PI_2, PI};
+    let x = (i as f64 + 0.5) / 90.0;
+    (x * x * FRAC_PI_2, (j as f64 + 0.5) / 90.0 * FRAC_PI_2, (k as f64 + 0.5) / 180.0 * PI)
+}
+
+/// A MERL .binary file tabulating `f(theta_half, theta_diff, phi_diff)` (RGB) at the centre
+/// of every cell, stored with MERL's per-channel scales.
+pub fn merl_bytes(f: impl Fn(f64, f64, f64) -> [f64; 3]) -> Vec<u8> {
+    use lucent::bsdf::measured::{PHI_DIFF, SCALE, THETA_DIFF, THETA_HALF};
+    let cells = THETA_HALF * THETA_DIFF * PHI_DIFF;
+    let mut values = vec![0.0f64; 3 * cells];
+    for i in 0..THETA_HALF {
+        for j in 0..THETA_DIFF {
+            for k in 0..PHI_DIFF {
+                let (th, td, pd) = merl_cell_centre(i, j, k);
+                let v = f(th, td, pd);
+                let at = k + PHI_DIFF * (j + THETA_DIFF * i);
+                for c in 0..3 {
+                    values[c * cells + at] = v[c] / SCALE[c];
+                }
+            }
+        }
+    }
+    let mut bytes: Vec<u8> = [90i32, 90, 180].iter().flat_map(|d| d.to_le_bytes()).collect();
+    bytes.extend(values.iter().flat_map(|v| v.to_le_bytes()));
+    bytes
+}
+
+/// A smooth analytic BRDF with a diffuse part and a glossy lobe that depends on all three
+/// half/difference angles (reciprocal, and periodic in phi_diff with period pi).
+pub fn analytic_brdf(theta_h: f64, theta_d: f64, phi_d: f64) -> [f64; 3] {
+    let lobe =
+        2.0 * (-theta_h * theta_h / 0.02).exp() * (1.0 + 0.3 * (2.0 * phi_d).cos()) * (0.5 + 0.5 * theta_d.cos());
+    [0.15, 0.25, 0.35].map(|kd| kd / std::f64::consts::PI + lobe)
+}
+
+/// The direction pair (wo, wi) with half/difference angles (theta_h, theta_d, phi_d) and
+/// half-vector azimuth `phi_h` (MERL's convention), in the shading frame.
+pub fn from_half_diff(theta_h: f64, theta_d: f64, phi_d: f64, phi_h: f64) -> (glam::Vec3, glam::Vec3) {
+    use glam::DVec3;
+    let d = DVec3::new(theta_d.sin() * phi_d.cos(), theta_d.sin() * phi_d.sin(), theta_d.cos());
+    let (s, c) = theta_h.sin_cos();
+    let t = DVec3::new(c * d.x + s * d.z, d.y, -s * d.x + c * d.z);
+    let (s, c) = phi_h.sin_cos();
+    let wi = DVec3::new(c * t.x - s * t.y, s * t.x + c * t.y, t.z);
+    let h = DVec3::new(theta_h.sin() * phi_h.cos(), theta_h.sin() * phi_h.sin(), theta_h.cos());
+    let wo = 2.0 * wi.dot(h) * h - wi;
+    (wo.as_vec3(), wi.as_vec3())
+}
