@@ -75,6 +75,7 @@ fn bad_input_gives_one_line_errors_and_no_file() {
     fails_in_one_line(&["render", "--clamp", "-2", "--out", o], "firefly clamp", &out);
     fails_in_one_line(&["render", "--without", "epsilons", "--out", o], "epsilons", &out);
     fails_in_one_line(&["render", "--env", "/no/such/sky.hdr", "--out", o], "sky.hdr", &out);
+    fails_in_one_line(&["render", "--camera", "3", "--out", o], "cornell-box has 1 camera", &out);
     fails_in_one_line(&["render", "--background", "1,1", "--env-intensity", "2", "--out", o], "three values", &out);
     fails_in_one_line(&["render", "--background", "1,1,1", "--env-intensity", "-1", "--out", o], "intensity", &out);
     let drt = ["render", "--integrator", "distribution", "--branching", "64", "--max-depth", "4", "--out", o];

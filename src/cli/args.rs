@@ -72,6 +72,9 @@ pub struct RenderOptions {
     /// Image height in pixels [default: 512; the viewer follows its window].
     #[arg(long)]
     pub height: Option<u32>,
+    /// Look through the file's camera number N (0-based, in the viewer's list) [default: the first].
+    #[arg(long)]
+    pub camera: Option<usize>,
     /// Seed of the random streams [default: 0].
     #[arg(long)]
     pub seed: Option<u64>,
@@ -136,6 +139,24 @@ pub struct RenderOptions {
     /// Uniform background radiance R,G,B (linear) where no --env map is given [default: 0,0,0].
     #[arg(long, value_delimiter = ',', num_args = 1, allow_negative_numbers = true)]
     pub background: Option<Vec<f32>>,
+}
+
+/// The camera `--camera` picks from `scene`, else `view` (from a view file); the error is one line.
+pub fn pick_camera(
+    index: Option<usize>,
+    view: Option<Camera>,
+    scene: &crate::scene::Scene,
+) -> Result<Option<Camera>, String> {
+    match index {
+        None => Ok(view),
+        Some(i) => match scene.cameras.get(i) {
+            Some((_, c)) => Ok(Some(*c)),
+            None => {
+                let n = scene.cameras.len();
+                Err(format!("--camera {i}: {} has {n} camera{}", scene.name, if n == 1 { "" } else { "s" }))
+            }
+        },
+    }
 }
 
 /// A render setup resolved from a view file and the command line.

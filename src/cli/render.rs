@@ -52,8 +52,8 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         eprintln!("distribution ray tracing: up to {rays:.3e} rays per sample{per_pixel}");
     }
     let scene = Arc::new(load_scene(args.scene.as_deref(), &resolved.environment)?);
-    let camera =
-        resolved.camera.unwrap_or_else(|| scene.default_camera(settings.width as f32 / settings.height as f32));
+    let camera = super::args::pick_camera(args.options.camera, resolved.camera, &scene)?
+        .unwrap_or_else(|| scene.default_camera(settings.width as f32 / settings.height as f32));
     let session = RenderSession::new(Job { scene: Arc::clone(&scene), camera, settings }, args.options.threads)
         .map_err(|e| e.to_string())?;
 

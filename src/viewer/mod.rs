@@ -43,13 +43,14 @@ pub fn run(args: &ViewArgs) -> Result<(), String> {
     }
     let fixed = args.options.width.is_some() || args.options.height.is_some() || args.options.view.is_some();
     let scene = load_scene(args.scene.as_deref(), &resolved.environment)?;
+    let camera = crate::cli::args::pick_camera(args.options.camera, resolved.camera, &scene)?;
     let state = ViewerState::new(
         scene,
         args.scene.clone(),
         resolved.settings,
         fixed,
         resolved.display,
-        resolved.camera,
+        camera,
         args.options.threads,
     )?;
     let event_loop = EventLoop::new().map_err(|e| format!("cannot open a window: {e}"))?;
