@@ -53,22 +53,9 @@ fn p_value(bsdf: &Bsdf, wo: Vec3, strategy: Strategy, pdf_strategy: Strategy, se
     // Refraction's pdf jumps from zero where the needed microfacets turn away from wo; a
     // finer midpoint rule keeps the error of the bins it crosses below the test's noise.
     let sub = if bsdf.transmits() { 4 * SUB } else { SUB };
-    let mut expected = vec![0.0f64; bins + 1];
-    for i in 0..theta_bins {
-        for j in 0..PHI_BINS {
-            let mut integral = 0.0;
-            for a in 0..sub {
-                for b in 0..sub {
-                    let theta = (i as f64 + (a as f64 + 0.5) / sub as f64) * dt;
-                    let phi = (j as f64 + (b as f64 + 0.5) / sub as f64) * dp;
-                    integral += bsdf.pdf(wo, direction(theta, phi), pdf_strategy) as f64 * theta.sin();
-                }
-            }
-            expected[i * PHI_BINS + j] = integral * dt * dp / (sub * sub) as f64 * SAMPLES as f64;
-        }
-    }
-    let total: f64 = expected[..bins].iter().sum();
-    expected[bins] = (SAMPLES as f64 - total).max(0.0);
+    let expected = common::expected_counts((theta_bins, PHI_BINS), (dt, dp), sub, SAMPLES, |theta, phi| {
+        bsdf.pdf(wo, direction(theta, phi), pdf_strategy) as f64
+    });
     common::chi2_p_value(&observed, &expected)
 }
 

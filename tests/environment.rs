@@ -63,23 +63,15 @@ fn the_map_density_passes_a_chi_square_test() {
         }
         // Rounding may put a sample on a texel edge into its neighbour; that is all it may do.
         assert!(mismatched * 1000 < SAMPLES, "{name}: {mismatched} samples whose pdf disagrees with pdf()");
-        let mut expected = vec![0.0f64; bins + 1];
-        for i in 0..THETA_BINS {
-            for j in 0..PHI_BINS {
-                let mut integral = 0.0;
-                for a in 0..SUB {
-                    for b in 0..SUB {
-                        let theta = (i as f64 + (a as f64 + 0.5) / SUB as f64) * dt;
-                        let phi = (j as f64 + (b as f64 + 0.5) / SUB as f64) * dp;
-                        integral += env.pdf(direction(theta, phi)) as f64 * theta.sin();
-                    }
-                }
-                expected[i * PHI_BINS + j] = integral * dt * dp / (SUB * SUB) as f64 * SAMPLES as f64;
-            }
-        }
+        let expected = common::expected_counts((THETA_BINS, PHI_BINS), (dt, dp), SUB, SAMPLES, |theta, phi| {
+            env.pdf(direction(theta, phi)) as f64
+        });
         let total: f64 = expected[..bins].iter().sum();
-        assert!((total / SAMPLES as f64 - 1.0).abs() < 1e-3, "{name}: the density integrates to {}", total / 4e5);
-        expected[bins] = (SAMPLES as f64 - total).max(0.0);
+        assert!(
+            (total / SAMPLES as f64 - 1.0).abs() < 1e-3,
+            "{name}: the density integrates to {}",
+            total / SAMPLES as f64
+        );
         let p = common::chi2_p_value(&observed, &expected);
         assert!(p > alpha, "{name} rotated {rotation}: chi-square p = {p:.2e}");
     }

@@ -33,6 +33,36 @@ pub fn sidak_z(alpha: f64, tests: usize) -> f64 {
     Normal::new(0.0, 1.0).unwrap().inverse_cdf(1.0 - per_test / 2.0)
 }
 
+/// Expected sample counts of `samples` draws from a solid-angle `density(theta, phi)` in
+/// each of `theta_bins` x `phi_bins` bins of size `dt` x `dp` (row-major, theta first),
+/// by the midpoint rule on `sub` x `sub` points per bin, and one more bin for the mass the
+/// density leaves out (samples the routine rejects).
+pub fn expected_counts(
+    (theta_bins, phi_bins): (usize, usize),
+    (dt, dp): (f64, f64),
+    sub: usize,
+    samples: usize,
+    density: impl Fn(f64, f64) -> f64,
+) -> Vec<f64> {
+    let mut expected = vec![0.0f64; theta_bins * phi_bins + 1];
+    for i in 0..theta_bins {
+        for j in 0..phi_bins {
+            let mut integral = 0.0;
+            for a in 0..sub {
+                for b in 0..sub {
+                    let theta = (i as f64 + (a as f64 + 0.5) / sub as f64) * dt;
+                    let phi = (j as f64 + (b as f64 + 0.5) / sub as f64) * dp;
+                    integral += density(theta, phi) * theta.sin();
+                }
+            }
+            expected[i * phi_bins + j] = integral * dt * dp / (sub * sub) as f64 * samples as f64;
+        }
+    }
+    let total: f64 = expected[..theta_bins * phi_bins].iter().sum();
+    expected[theta_bins * phi_bins] = (samples as f64 - total).max(0.0);
+    expected
+}
+
 /// Chi-square p-value of observed against expected bin counts; bins expecting fewer than 5
 /// samples are pooled into one (which must then be empty if it expects nothing).
 pub fn chi2_p_value(observed: &[f64], expected: &[f64]) -> f64 {
