@@ -247,3 +247,56 @@ fn transmission_shows_the_backdrop_through_smooth_spheres_and_blurs_it_through_r
     assert!(c_smooth > c_rough + 0.1, "smooth {c_smooth:.2} vs rough {c_rough:.2}");
     assert!(c_opaque < 0.25, "without transmission: correlation {c_opaque:.2}");
 }
+
+/// ln(B / R) of the mean colour of the pixels whose centre sees `material`: how blue the
+/// light through a cube of the blue glass is.
+fn blueness(snap: &Snapshot, ids: &[Option<u32>], material: u32) -> f64 {
+    let pixels: Vec<usize> = (0..ids.len()).filter(|&i| ids[i] == Some(material)).collect();
+    assert!(pixels.len() > 20, "{} pixels", pixels.len());
+    let c = pixels.iter().map(|&i| snap.mean[i]).sum::<Vec3>();
+    (c.z as f64 / c.x as f64).ln()
+}
+
+#[test]
+fn attenuation_deepens_with_thickness_alike_in_every_row() {
+    // The README: each column must show one shade. The "Thickness Factor" row varies the
+    // cube's size at attenuation distance 1, the "Attenuation" row varies the distance at
+    // size 1, so column x has x units of attenuation in both: the two must be equally blue,
+    // and bluer the larger x. Without the volume (thin walls) nothing deepens.
+    let scene = Arc::new(load("AttenuationTest"));
+    let (w, h) = (400, 400);
+    let camera = front(&scene, 1.0);
+    let ids = material_ids(&scene, camera, w, h);
+    let columns = ["0.25", "0.50", "1.0", "1.5", "2.0"];
+    let row = |snap: &Snapshot| -> Vec<(f64, f64)> {
+        columns
+            .iter()
+            .map(|x| {
+                let size =
+                    if *x == "1.0" { "R2_and_R4_ThicknessFac_1.0".into() } else { format!("R2_ThicknessFac_{x}") };
+                let by_size = blueness(snap, &ids, material(&scene, &size));
+                (by_size, blueness(snap, &ids, material(&scene, &format!("R5_Attenuation_{x}"))))
+            })
+            .collect()
+    };
+    let right = row(&render(&scene, camera, w, h, 32));
+    for (x, (by_size, by_distance)) in columns.iter().zip(&right) {
+        let ratio = by_distance / by_size;
+        assert!(
+            (0.75..1.33).contains(&ratio),
+            "column {x}: ln(B/R) {by_size:.2} by size, {by_distance:.2} by distance"
+        );
+    }
+    // Beyond one unit the red that crosses the glass (0.1^x) is below what its faces
+    // reflect, so the measure saturates; up to one unit it must grow.
+    for pair in right[..3].windows(2) {
+        assert!(pair[1].0 > pair[0].0 && pair[1].1 > pair[0].1, "thicker is bluer: {right:?}");
+    }
+    let mut thin = scene.materials.clone();
+    for m in &mut thin {
+        m.volume = None;
+    }
+    let thin = row(&render(&Arc::new(scene.with_edits(thin, scene.lights.clone())), camera, w, h, 32));
+    let deepest = thin.iter().map(|p| p.0.max(p.1)).fold(f64::MIN, f64::max);
+    assert!(deepest < 0.5 * right[2].0, "thin walls tint as much as one unit of glass: {thin:?}");
+}
