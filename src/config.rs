@@ -72,7 +72,7 @@ mod tests {
         view.save(&path).unwrap();
         assert_eq!(ViewFile::load(&path).unwrap(), view);
         std::fs::write(&path, "[settings]\nwidth = 0\n").unwrap();
-        assert!(ViewFile::load(&path).unwrap_err().contains("image size"));
+        assert!(ViewFile::load(&path).unwrap_err().contains("width: 0 is not in 1..=16384"));
         std::fs::write(&path, "[settings]\nlight_sampling = \"sometimes\"\n").unwrap();
         let err = ViewFile::load(&path).unwrap_err();
         assert!(err.contains("v.toml") && !err.contains('\n'), "{err}");

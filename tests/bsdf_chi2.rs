@@ -1,14 +1,18 @@
 //! Chi-square goodness-of-fit tests of the direction sampling routines against their pdfs
 //! (after Mitsuba 3's chi2 tests and pbrt-v4's bsdfs_test): sampled directions are binned
 //! on a (theta, phi) grid, expected counts come from integrating the pdf numerically over
-//! each bin, bins expecting fewer than 5 samples are pooled, and rejected samples are a bin
-//! of their own (expected: the pdf's missing mass). Family-wise significance 1% (Sidak).
+//! each bin, bins expecting fewer than 5 samples are pooled, samples of delta lobes are a
+//! bin of their own (expected: `specular_probability`), and rejected samples another
+//! (expected: the mass left). Family-wise significance 1% (Sidak). Both direction
+//! strategies of the integrator are tested: BSDF importance sampling and uniform directions.
 
 mod common;
 
 use glam::{UVec2, Vec3};
-use lucent::bsdf::{Bsdf, Lambert, MetalRough, Strategy, measured::MerlTable};
+use lucent::bsdf::{Bsdf, Lambert, MetalRough, TransportMode, measured::MerlTable};
+use lucent::integrator::Sampling;
 use lucent::math::sampler::Sampler;
+use lucent::spectrum::Spectrum;
 use std::f64::consts::PI;
 
 const THETA_BINS: usize = 32;
@@ -24,18 +28,25 @@ fn from_angles(theta: f32) -> Vec3 {
     Vec3::new(theta.sin(), 0.0, theta.cos())
 }
 
-/// Chi-square p-value of `Bsdf::sample` under `strategy` against `Bsdf::pdf` under
-/// `pdf_strategy` (the same one, unless testing the test) for outgoing `wo`. Bins cover the
-/// hemisphere, or the whole sphere (twice the theta bins) for BSDFs that transmit.
-fn p_value(bsdf: &Bsdf, wo: Vec3, strategy: Strategy, pdf_strategy: Strategy, seed: u64) -> f64 {
+/// Chi-square p-value of `strategy`'s samples against the density of `pdf_strategy` (the
+/// same one, unless testing the test) for outgoing `wo`. Bins cover the hemisphere, or the
+/// whole sphere (twice the theta bins) for BSDFs that transmit; delta samples must leave in
+/// the mirror or the refracted direction and make up the delta lobes' probability.
+fn p_value(bsdf: &Bsdf, wo: Vec3, strategy: Sampling, pdf_strategy: Sampling, seed: u64) -> f64 {
     let theta_bins = if bsdf.transmits() { 2 * THETA_BINS } else { THETA_BINS };
     let (dt, dp) = (0.5 * PI / THETA_BINS as f64, 2.0 * PI / PHI_BINS as f64);
     let bins = theta_bins * PHI_BINS;
-    let mut observed = vec![0.0f64; bins + 1];
+    let mut observed = vec![0.0f64; bins + 2];
     let mut sampler = Sampler::new(UVec2::new(7, 11), 0, seed);
+    let mirror = Vec3::new(-wo.x, -wo.y, wo.z);
     for _ in 0..SAMPLES {
         let (u_lobe, u) = (sampler.next_1d(), sampler.next_2d());
-        match bsdf.sample(wo, u_lobe, u, strategy) {
+        match strategy.sample(bsdf, wo, u_lobe, u) {
+            Some(s) if s.is_specular() => {
+                let refracted = s.wi.z < 0.0 && bsdf.transmits();
+                assert!(refracted || (s.wi - mirror).length() < 1e-5, "delta reflection off the mirror: {:?}", s.wi);
+                observed[bins + 1] += 1.0;
+            }
             Some(s) => {
                 assert!(
                     (s.wi.z > 0.0 || bsdf.transmits()) && (s.wi.length() - 1.0).abs() < 1e-4,
@@ -53,22 +64,29 @@ fn p_value(bsdf: &Bsdf, wo: Vec3, strategy: Strategy, pdf_strategy: Strategy, se
     // Refraction's pdf jumps from zero where the needed microfacets turn away from wo; a
     // finer midpoint rule keeps the error of the bins it crosses below the test's noise.
     let sub = if bsdf.transmits() { 4 * SUB } else { SUB };
-    let expected = common::expected_counts((theta_bins, PHI_BINS), (dt, dp), sub, SAMPLES, |theta, phi| {
-        bsdf.pdf(wo, direction(theta, phi), pdf_strategy) as f64
+    let mut expected = common::expected_counts((theta_bins, PHI_BINS), (dt, dp), sub, SAMPLES, |theta, phi| {
+        pdf_strategy.eval_pdf(bsdf, wo, direction(theta, phi)).1 as f64
     });
+    let delta = bsdf.specular_probability(wo) as f64 * SAMPLES as f64;
+    expected[bins] = (expected[bins] - delta).max(0.0);
+    expected.push(delta);
     common::chi2_p_value(&observed, &expected)
 }
 
 fn alpha(roughness: f32) -> f32 {
-    (roughness * roughness).max(lucent::scene::material::MIN_ALPHA)
+    roughness * roughness
 }
 
-fn metal_rough(base: Vec3, metallic: f32, roughness: f32) -> Bsdf<'static> {
+fn rgb(r: f32, g: f32, b: f32) -> Spectrum {
+    Spectrum::from_rgb(Vec3::new(r, g, b))
+}
+
+fn metal_rough(base: Spectrum, metallic: f32, roughness: f32) -> Bsdf<'static> {
     with_specular(base, metallic, roughness, 1.0)
 }
 
 /// The glTF BRDF with KHR_materials_specular weight `specular` and ior 1.5.
-fn with_specular(base: Vec3, metallic: f32, roughness: f32, specular: f32) -> Bsdf<'static> {
+fn with_specular(base: Spectrum, metallic: f32, roughness: f32, specular: f32) -> Bsdf<'static> {
     Bsdf::MetalRough(MetalRough { base, metallic, alpha: alpha(roughness), specular, ..MetalRough::default() })
 }
 
@@ -80,28 +98,52 @@ fn glass(roughness: f32, eta: f32, thin: bool) -> Bsdf<'static> {
 
 #[test]
 fn sampling_routines_match_their_pdfs() {
-    let lambert = Bsdf::Lambert(Lambert { albedo: Vec3::splat(0.7) });
-    let mut cases: Vec<(String, Bsdf, Vec3, Strategy)> = vec![
-        ("cosine hemisphere".into(), lambert, from_angles(0.5), Strategy::Importance),
-        ("uniform hemisphere".into(), lambert, from_angles(0.5), Strategy::Uniform),
-        ("uniform, glossy".into(), metal_rough(Vec3::splat(0.8), 1.0, 0.3), from_angles(0.7), Strategy::Uniform),
+    let lambert = Bsdf::Lambert(Lambert { albedo: Spectrum::splat(0.7) });
+    let mut cases: Vec<(String, Bsdf, Vec3, Sampling)> = vec![
+        ("cosine hemisphere".into(), lambert, from_angles(0.5), Sampling::Importance),
+        ("uniform hemisphere".into(), lambert, from_angles(0.5), Sampling::Uniform),
+        ("uniform, glossy".into(), metal_rough(Spectrum::splat(0.8), 1.0, 0.3), from_angles(0.7), Sampling::Uniform),
     ];
+    // Delta lobes: smooth coats over a diffuse base, smooth glass, a smooth clearcoat over
+    // rough metal; with importance sampling and with uniform directions for the rest.
+    for sampling in [Sampling::Importance, Sampling::Uniform] {
+        for theta_o in [0.3f32, 1.3] {
+            let coat = with_specular(rgb(0.6, 0.4, 0.2), 0.0, 0.0, 1.0);
+            cases.push((
+                format!("smooth coat over diffuse, theta_o {theta_o}, {sampling:?}"),
+                coat,
+                from_angles(theta_o),
+                sampling,
+            ));
+            let glass = glass(0.0, 1.5, false);
+            cases.push((
+                format!("smooth glass, theta_o {theta_o}, {sampling:?}"),
+                glass,
+                from_angles(theta_o),
+                sampling,
+            ));
+            let clear =
+                MetalRough { metallic: 1.0, alpha: 0.3, clearcoat: 1.0, clearcoat_alpha: 0.0, ..MetalRough::default() };
+            let label = format!("smooth clearcoat over rough metal, theta_o {theta_o}, {sampling:?}");
+            cases.push((label, Bsdf::MetalRough(clear), from_angles(theta_o), sampling));
+        }
+    }
     for roughness in [0.3f32, 0.6, 1.0] {
         for theta_o in [0.2f32, 0.9, 1.4] {
             let label = format!("GGX VNDF reflection, roughness {roughness}, theta_o {theta_o}");
             cases.push((
                 label,
-                metal_rough(Vec3::splat(0.9), 1.0, roughness),
+                metal_rough(Spectrum::splat(0.9), 1.0, roughness),
                 from_angles(theta_o),
-                Strategy::Importance,
+                Sampling::Importance,
             ));
         }
     }
     for roughness in [0.4f32, 0.9] {
         for theta_o in [0.3f32, 1.2] {
             let label = format!("glTF mixture, roughness {roughness}, theta_o {theta_o}");
-            let bsdf = metal_rough(Vec3::new(0.6, 0.4, 0.2), 0.3, roughness);
-            cases.push((label, bsdf, from_angles(theta_o), Strategy::Importance));
+            let bsdf = metal_rough(rgb(0.6, 0.4, 0.2), 0.3, roughness);
+            cases.push((label, bsdf, from_angles(theta_o), Sampling::Importance));
         }
     }
     for (roughness, eta, thin) in [
@@ -113,25 +155,25 @@ fn sampling_routines_match_their_pdfs() {
     ] {
         for theta_o in [0.2f32, 1.0, 1.4] {
             let label = format!("rough dielectric, roughness {roughness}, eta {eta}, thin {thin}, theta_o {theta_o}");
-            cases.push((label, glass(roughness, eta, thin), from_angles(theta_o), Strategy::Importance));
+            cases.push((label, glass(roughness, eta, thin), from_angles(theta_o), Sampling::Importance));
         }
     }
     for (roughness, theta_o) in [(0.2f32, 0.4f32), (0.6, 1.3)] {
         let coat = MetalRough {
-            base: Vec3::new(0.7, 0.2, 0.1),
+            base: rgb(0.7, 0.2, 0.1),
             alpha: alpha(0.8),
             clearcoat: 1.0,
             clearcoat_alpha: alpha(roughness),
             ..MetalRough::default()
         };
         let label = format!("clearcoat, roughness {roughness}, theta_o {theta_o}");
-        cases.push((label, Bsdf::MetalRough(coat), from_angles(theta_o), Strategy::Importance));
-        let sheen = MetalRough { sheen: Vec3::new(0.9, 0.8, 0.7), sheen_alpha: roughness * roughness + 0.05, ..coat };
+        cases.push((label, Bsdf::MetalRough(coat), from_angles(theta_o), Sampling::Importance));
+        let sheen = MetalRough { sheen: rgb(0.9, 0.8, 0.7), sheen_alpha: roughness * roughness + 0.05, ..coat };
         let label = format!("sheen over clearcoat, sheen roughness {roughness}, theta_o {theta_o}");
-        cases.push((label, Bsdf::MetalRough(sheen), from_angles(theta_o), Strategy::Importance));
+        cases.push((label, Bsdf::MetalRough(sheen), from_angles(theta_o), Sampling::Importance));
     }
     let everything = MetalRough {
-        base: Vec3::new(0.5, 0.6, 0.7),
+        base: rgb(0.5, 0.6, 0.7),
         metallic: 0.3,
         alpha: alpha(0.5),
         transmission: 0.5,
@@ -139,15 +181,15 @@ fn sampling_routines_match_their_pdfs() {
         thin: false,
         clearcoat: 0.5,
         clearcoat_alpha: alpha(0.3),
-        sheen: Vec3::splat(0.5),
+        sheen: Spectrum::splat(0.5),
         sheen_alpha: 0.3,
         ..MetalRough::default()
     };
-    cases.push(("every lobe at once".into(), Bsdf::MetalRough(everything), from_angles(0.8), Strategy::Importance));
+    cases.push(("every lobe at once".into(), Bsdf::MetalRough(everything), from_angles(0.8), Sampling::Importance));
     let measured = MerlTable::read(&common::merl_bytes(common::analytic_brdf)).unwrap();
     for theta_o in [0.3f32, 1.0, 1.4] {
         let label = format!("measured (MERL table of a glossy BRDF), theta_o {theta_o}");
-        cases.push((label, Bsdf::Measured(&measured), from_angles(theta_o), Strategy::Importance));
+        cases.push((label, Bsdf::Measured(&measured), from_angles(theta_o), Sampling::Importance));
     }
     let alpha = 1.0 - (1.0 - 0.01f64).powf(1.0 / cases.len() as f64);
     let failures: Vec<String> = cases
@@ -164,8 +206,11 @@ fn sampling_routines_match_their_pdfs() {
 #[test]
 fn a_wrong_pdf_is_rejected() {
     // The test's power: cosine-distributed samples judged against the uniform pdf.
-    let lambert = Bsdf::Lambert(Lambert { albedo: Vec3::ONE });
-    assert!(p_value(&lambert, Vec3::Z, Strategy::Importance, Strategy::Uniform, 1) < 1e-6);
+    let lambert = Bsdf::Lambert(Lambert { albedo: Spectrum::ONE });
+    assert!(p_value(&lambert, Vec3::Z, Sampling::Importance, Sampling::Uniform, 1) < 1e-6);
+    // Beside a delta lobe too: a smooth coat's diffuse samples judged against uniform directions.
+    let coat = with_specular(rgb(0.6, 0.4, 0.2), 0.0, 0.0, 1.0);
+    assert!(p_value(&coat, from_angles(1.3), Sampling::Importance, Sampling::Uniform, 2) < 1e-6);
 }
 
 /// Hemispherical-directional albedo at `wo` by importance sampling: mean and standard
@@ -179,7 +224,7 @@ fn albedo(bsdf: &Bsdf, wo: Vec3, n: usize, sampler: &mut Sampler) -> (f64, f64) 
     let (mut sum, mut sum_sq) = (0.0f64, 0.0f64);
     for _ in 0..n {
         let w = bsdf
-            .sample(wo, sampler.next_1d(), sampler.next_2d(), Strategy::Importance)
+            .sample(wo, sampler.next_1d(), sampler.next_2d(), TransportMode::Radiance)
             .map_or(0.0, |s| s.weight.max_element() as f64 * if s.wi.z < 0.0 { eta2 } else { 1.0 });
         sum += w;
         sum_sq += w * w;
@@ -196,7 +241,7 @@ fn a_white_metal_reflects_all_light_at_every_roughness() {
     for roughness in [0.0f32, 0.1, 0.25, 0.5, 0.75, 1.0] {
         for theta_o in [0.0f32, 0.5, 1.0, 1.3, 1.5] {
             let (mean, se) =
-                albedo(&metal_rough(Vec3::ONE, 1.0, roughness), from_angles(theta_o), 20_000, &mut sampler);
+                albedo(&metal_rough(Spectrum::ONE, 1.0, roughness), from_angles(theta_o), 20_000, &mut sampler);
             assert!(mean >= 0.98 - 4.0 * se, "roughness {roughness}, theta_o {theta_o}: albedo {mean} < 0.98");
             assert!(
                 mean <= 1.0 + 4.0 * se + TABLE_ERROR,
@@ -220,15 +265,15 @@ fn bsdfs_conserve_energy_and_are_reciprocal() {
             alpha: alpha(roughness),
             clearcoat,
             clearcoat_alpha: alpha(roughness),
-            sheen: Vec3::splat(sheen),
+            sheen: Spectrum::splat(sheen),
             sheen_alpha: alpha(roughness).max(0.01),
             ..MetalRough::default()
         };
         for bsdf in [
-            metal_rough(Vec3::ONE, 1.0, roughness),
-            with_specular(Vec3::ONE, 0.0, roughness, 0.0),
-            metal_rough(Vec3::ONE, 0.0, roughness),
-            metal_rough(Vec3::ONE, 0.5, roughness),
+            metal_rough(Spectrum::ONE, 1.0, roughness),
+            with_specular(Spectrum::ONE, 0.0, roughness, 0.0),
+            metal_rough(Spectrum::ONE, 0.0, roughness),
+            metal_rough(Spectrum::ONE, 0.5, roughness),
             glass(roughness, 1.5, false),
             glass(roughness, 1.0 / 1.5, false),
             glass(roughness, 1.5, true),
@@ -249,8 +294,8 @@ fn bsdfs_conserve_energy_and_are_reciprocal() {
             for _ in 0..200 {
                 let a = lucent::math::warp::uniform_hemisphere(sampler.next_2d());
                 let b = lucent::math::warp::uniform_hemisphere(sampler.next_2d());
-                let fab = bsdf.eval_cos(a, b) / b.z;
-                let fba = bsdf.eval_cos(b, a) / a.z;
+                let fab = bsdf.eval(a, b, TransportMode::Radiance).to_rgb() / b.z;
+                let fba = bsdf.eval(b, a, TransportMode::Radiance).to_rgb() / a.z;
                 assert!((fab - fba).abs().max_element() <= 1e-4 * fab.max_element().max(1.0), "{fab} vs {fba}");
             }
         }

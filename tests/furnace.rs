@@ -110,3 +110,42 @@ fn white_sphere_in_an_emitting_enclosure_returns_the_emitted_radiance() {
         assert!(brightest < 2.0, "no pixel far above the emitted radiance: {brightest}");
     }
 }
+
+#[test]
+fn a_smooth_mirror_and_smooth_glass_in_the_furnace_change_nothing() {
+    // Inside the enclosure above (L = 1 everywhere), a white mirror reflects 1 and a clear
+    // glass sphere passes 1 (R + T = 1, its radiance scaled by eta^2 inside and back out):
+    // every pixel is 1 in every mode. Emission found after the delta bounces must count in
+    // full, also with explicit light sampling, or the mirror and glass would show only half.
+    let enclosure = Material { emissive: Vec3::splat(0.5), ..Material::lambert("furnace", Vec3::splat(0.5)) };
+    let mirror = Material { metallic: 1.0, roughness: 0.0, ..Material::lambert("mirror", Vec3::ONE) };
+    let glass = Material::glass("glass", 1.5, Some(Vec3::ZERO));
+    let desc = SceneDesc {
+        name: "delta furnace".into(),
+        meshes: vec![
+            flat(uv_sphere(Vec3::ZERO, 1.0, 24, 48, true, 0)),
+            flat(uv_sphere(Vec3::new(0.25, 0.0, -0.5), 0.2, 16, 32, false, 1)),
+            flat(uv_sphere(Vec3::new(-0.25, 0.0, -0.5), 0.2, 16, 32, false, 2)),
+        ],
+        materials: vec![enclosure, mirror, glass],
+        ..SceneDesc::default()
+    };
+    let scene = Arc::new(Scene::build(desc));
+    let camera = Camera::look_at(Vec3::ZERO, Vec3::new(0.0, 0.0, -1.0), 0.9);
+    let z_max = common::sidak_z(1e-3, SWITCHES.len() * 3);
+    for (importance, lights) in SWITCHES {
+        let settings = Settings {
+            width: 32,
+            height: 32,
+            max_depth: u32::MAX,
+            importance_sampling: importance,
+            light_sampling: lights,
+            target_spp: Some(64),
+            ..Settings::default()
+        };
+        let snap = common::render(&scene, camera, settings, None);
+        let mean =
+            assert_mean(&snap, 1.0, z_max, &format!("delta furnace, importance {importance}, lights {lights:?}"));
+        assert!((mean[0] - 1.0).abs() < 0.02, "mean {mean:?} within 2% of 1");
+    }
+}

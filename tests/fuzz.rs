@@ -8,7 +8,7 @@
 mod common;
 
 use glam::UVec2;
-use lucent::integrator::{Settings, kernel};
+use lucent::integrator::{Settings, sample_pixel};
 use lucent::loader::gltf;
 use lucent::scene::Scene;
 use proptest::prelude::*;
@@ -31,9 +31,8 @@ fn exercise(bytes: &[u8]) {
     let scene = Scene::build(desc);
     let settings = Settings { width: 4, height: 4, max_depth: 4, ..Settings::default() };
     let rays = scene.default_camera(1.0).rays(settings.width, settings.height);
-    let sample = kernel(scene.features);
     for i in 0..16u32 {
-        let out = sample(&scene, &settings, &rays, UVec2::new(i % 4, i / 4), i as u64);
+        let out = sample_pixel(&scene, &settings, &rays, UVec2::new(i % 4, i / 4), i as u64);
         // Non-finite radiance is allowed only if the film would drop it; it must not panic.
         let _ = out.radiance.is_finite();
     }

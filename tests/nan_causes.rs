@@ -5,7 +5,7 @@
 
 use glam::{UVec2, Vec3};
 use lucent::integrator::nan::{self, NanCause};
-use lucent::integrator::{Settings, kernel};
+use lucent::integrator::{Settings, sample_pixel};
 use lucent::loader::builtin;
 use lucent::scene::Scene;
 
@@ -22,8 +22,9 @@ fn render_with(edit: impl Fn(&mut Vec<lucent::scene::material::Material>)) -> u3
     let scene = scene.with_edits(materials, scene.lights.clone());
     let settings = Settings { width: 8, height: 8, ..Settings::default() };
     let rays = scene.default_camera(1.0).rays(8, 8);
-    let sample = kernel(scene.features);
-    (0..64u32).map(|i| !sample(&scene, &settings, &rays, UVec2::new(i % 8, i / 8), 0).radiance.is_finite() as u32).sum()
+    (0..64u32)
+        .map(|i| !sample_pixel(&scene, &settings, &rays, UVec2::new(i % 8, i / 8), 0).radiance.is_finite() as u32)
+        .sum()
 }
 
 #[test]

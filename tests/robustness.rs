@@ -11,6 +11,7 @@ use lucent::math::sampler::Sampler;
 use lucent::math::warp::uniform_hemisphere;
 use lucent::render::Snapshot;
 use lucent::scene::{MeshDesc, Scene, SceneDesc, camera::Camera, geometry::Ray, material::Material};
+use lucent::spectrum::Spectrum;
 use std::f32::consts::PI;
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -190,7 +191,7 @@ fn a_million_samples_keep_the_exact_mean() {
     for _ in 0..n {
         let k = (s.next_1d() * (1u32 << 24) as f32) as u64;
         exact += k as u128;
-        film.tiles[0].add(UVec2::ZERO, Vec3::splat(k as f32 / (1u32 << 20) as f32));
+        film.tiles[0].add(UVec2::ZERO, Spectrum::splat(k as f32 / (1u32 << 20) as f32));
     }
     let exact_mean = exact as f64 / (1u64 << 20) as f64 / n as f64;
     let mean = film.mean_image()[0].x as f64;

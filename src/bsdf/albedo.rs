@@ -63,7 +63,7 @@ fn row(j: usize) -> &'static Row {
     static ROWS: [OnceLock<Row>; NR] = [const { OnceLock::new() }; NR];
     ROWS[j].get_or_init(|| {
         let r = roughness_at(j);
-        let ggx = Ggx { alpha: (r * r).max(crate::scene::material::MIN_ALPHA) };
+        let ggx = Ggx { alpha: (r * r).max(super::SMOOTH_ALPHA) };
         let (mut a_row, mut b_row) = ([0.0; N], [0.0; N]);
         for i in 0..N {
             let mu = mu_at(i);

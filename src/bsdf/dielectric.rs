@@ -2,8 +2,12 @@
 //! microfacets reflect with the exact Fresnel probability and refract otherwise. A thin wall
 //! (no volume behind it) lets the refracted light out of its far side at once, along the
 //! mirror image of the reflection. In the local frame wo is on the +z side; `eta` is
-//! n_other / n_wo. Transmission carries the 1/eta^2 of radiance entering a denser medium.
+//! n_other / n_wo. Transmission carries the 1/eta^2 of radiance entering a denser medium
+//! (for radiance only; importance is not scaled). Below `SMOOTH_ALPHA` the interface is
+//! smooth and its two lobes are deltas, which `MetalRough` samples through
+//! `reflectance` and `smooth_transmission`.
 
+use super::TransportMode;
 use super::microfacet::{Ggx, fresnel_dielectric, reflect, refract};
 use glam::{Vec2, Vec3};
 
@@ -39,8 +43,28 @@ impl Interface {
         Ggx { alpha: self.alpha }
     }
 
+    /// Relative index crossed by transmitted light: 1 through a thin wall.
+    pub fn crossed_eta(&self) -> f32 {
+        if self.thin { 1.0 } else { self.eta }
+    }
+
+    /// The factor transmitted light of `mode` carries: 1/eta^2 for radiance refracted
+    /// into a volume, 1 otherwise.
+    pub fn transmission_scale(&self, mode: TransportMode) -> f32 {
+        match mode {
+            TransportMode::Radiance if !self.thin => 1.0 / (self.eta * self.eta),
+            _ => 1.0,
+        }
+    }
+
+    /// Direction of the smooth interface's transmission lobe: straight through a thin
+    /// wall, refracted otherwise; None under total internal reflection.
+    pub fn smooth_transmission(&self, wo: Vec3) -> Option<Vec3> {
+        if self.thin { Some(-wo) } else { refract(wo, Vec3::Z, self.eta) }
+    }
+
     /// Reflectance of a microfacet seen at cosine `cos` from wo's side.
-    fn reflectance(&self, cos: f32) -> f32 {
+    pub fn reflectance(&self, cos: f32) -> f32 {
         (self.specular * fresnel_dielectric(cos, self.eta)).clamp(0.0, 1.0)
     }
 
@@ -74,34 +98,27 @@ impl Interface {
         Some(Connection::Refracted { h, oh, ih, denom, share: 1.0 - self.reflectance(oh) })
     }
 
-    /// f |cos theta_i| before tinting: reflection for wi.z > 0, transmission for wi.z < 0.
-    pub fn eval_cos(&self, wo: Vec3, wi: Vec3) -> f32 {
+    /// f |cos theta_i| of the rough interface before tinting, and the solid-angle density
+    /// of `sample`: reflection for wi.z > 0, transmission for wi.z < 0.
+    pub fn eval_pdf(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> (f32, f32) {
         let ggx = self.ggx();
         match self.connect(wo, wi) {
-            Some(Connection::Mirrored { h, wr, share }) => share * ggx.d(h) * ggx.g2(wo, wr) / (4.0 * wo.z),
+            Some(Connection::Mirrored { h, wr, share }) => {
+                let d = ggx.d(h);
+                let f = share * d * ggx.g2(wo, wr) / (4.0 * wo.z);
+                (f, share * ggx.visible_normal_pdf(wo, h, d) / (4.0 * wo.dot(h).abs()))
+            }
             Some(Connection::Refracted { h, oh, ih, denom, share }) => {
-                share * ggx.d(h) * ggx.g2(wo, -wi) * (ih * oh).abs() / (wo.z * denom * self.eta * self.eta)
+                let d = ggx.d(h);
+                let f = share * d * ggx.g2(wo, -wi) * (ih * oh).abs() * self.transmission_scale(mode) / (wo.z * denom);
+                (f, share * ggx.visible_normal_pdf(wo, h, d) * ih.abs() / denom)
             }
-            None => 0.0,
+            None => (0.0, 0.0),
         }
     }
 
-    /// Solid-angle density of `sample`.
-    pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        let ggx = self.ggx();
-        match self.connect(wo, wi) {
-            Some(Connection::Mirrored { h, share, .. }) => {
-                share * ggx.pdf_visible_normal(wo, h) / (4.0 * wo.dot(h).abs())
-            }
-            Some(Connection::Refracted { h, ih, denom, share, .. }) => {
-                share * ggx.pdf_visible_normal(wo, h) * ih.abs() / denom
-            }
-            None => 0.0,
-        }
-    }
-
-    /// A visible microfacet from `u`, then reflection with probability F (decided by
-    /// `u_lobe`) or refraction. None for directions on the wrong side.
+    /// A visible microfacet of the rough interface from `u`, then reflection with
+    /// probability F (decided by `u_lobe`) or refraction. None for directions on the wrong side.
     pub fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<Vec3> {
         let h = self.ggx().sample_visible_normal(wo, u);
         let r = self.reflectance(wo.dot(h));

@@ -5,6 +5,11 @@
 //!   sheen  over  clearcoat  over  mix(dielectric, metal, metallic),
 //!   dielectric = mix(diffuse base under a GGX specular layer, rough interface, transmission)
 //!
+//! Below `SMOOTH_ALPHA` the base's GGX lobes (metal, dielectric specular, the interface)
+//! and, separately, the clearcoat are delta lobes. Their sampling aggregates what leaves in
+//! the one mirror direction (and the one transmitted direction), so coinciding deltas are
+//! weighted together, like the balance heuristic does for the continuous lobes.
+//!
 //! Energy: the spec's `fresnel_mix` weights the base by 1 - F(v.h), which creates energy at
 //! grazing incidence. Instead:
 //! - The diffuse base is weighted by the energy the specular layer leaves to it, in the
@@ -21,7 +26,9 @@ use super::albedo::{ggx_albedo, ggx_average_albedo};
 use super::dielectric::Interface;
 use super::microfacet::{Ggx, reflect};
 use super::sheen::Sheen;
-use crate::math::{luminance, warp};
+use super::{BsdfSample, LobeFlags, TransportMode, is_smooth};
+use crate::math::warp;
+use crate::spectrum::Spectrum;
 use glam::{Vec2, Vec3};
 use std::f32::consts::FRAC_1_PI;
 
@@ -32,17 +39,17 @@ const CLEARCOAT_F0: f32 = 0.04;
 #[derive(Clone, Copy, Debug)]
 pub struct MetalRough {
     /// Base colour (diffuse albedo for dielectrics, F0 for metals, transmission tint).
-    pub base: Vec3,
+    pub base: Spectrum,
     /// Metalness in [0, 1].
     pub metallic: f32,
-    /// GGX alpha = roughness^2.
+    /// GGX alpha = roughness^2 (below `SMOOTH_ALPHA`: a delta lobe).
     pub alpha: f32,
     /// Dielectric F0: ((ior - 1) / (ior + 1))^2 x specularColor, clamped to 1.
-    pub dielectric_f0: Vec3,
+    pub dielectric_f0: Spectrum,
     /// KHR_materials_specular specularFactor: weight of the dielectric layer.
     pub specular: f32,
     /// KHR_materials_specular specularColorFactor, tinting the interface's reflection.
-    pub specular_tint: Vec3,
+    pub specular_tint: Spectrum,
     /// KHR_materials_transmission: share of the dielectric that is a transmitting interface.
     pub transmission: f32,
     /// Relative index of refraction n_other / n_wo at the interface.
@@ -51,10 +58,10 @@ pub struct MetalRough {
     pub thin: bool,
     /// KHR_materials_clearcoat factor.
     pub clearcoat: f32,
-    /// GGX alpha of the clearcoat.
+    /// GGX alpha of the clearcoat (below `SMOOTH_ALPHA`: a delta lobe).
     pub clearcoat_alpha: f32,
     /// KHR_materials_sheen colour (zero: no sheen).
-    pub sheen: Vec3,
+    pub sheen: Spectrum,
     /// Sheen alpha (sheenRoughness^2).
     pub sheen_alpha: f32,
 }
@@ -63,18 +70,18 @@ impl Default for MetalRough {
     /// A white, rough, opaque dielectric with no optional layers.
     fn default() -> Self {
         Self {
-            base: Vec3::ONE,
+            base: Spectrum::ONE,
             metallic: 0.0,
             alpha: 1.0,
-            dielectric_f0: Vec3::splat(CLEARCOAT_F0),
+            dielectric_f0: Spectrum::splat(CLEARCOAT_F0),
             specular: 1.0,
-            specular_tint: Vec3::ONE,
+            specular_tint: Spectrum::ONE,
             transmission: 0.0,
             eta: 1.5,
             thin: true,
             clearcoat: 0.0,
             clearcoat_alpha: 1.0,
-            sheen: Vec3::ZERO,
+            sheen: Spectrum::ZERO,
             sheen_alpha: 0.25,
         }
     }
@@ -84,27 +91,40 @@ fn schlick_weight(cos: f32) -> f32 {
     (1.0 - cos.clamp(0.0, 1.0)).powi(5)
 }
 
-fn schlick(f0: Vec3, cos: f32) -> Vec3 {
-    f0 + (Vec3::ONE - f0) * schlick_weight(cos)
+fn schlick(f0: Spectrum, cos: f32) -> Spectrum {
+    f0 + (Spectrum::ONE - f0) * schlick_weight(cos)
 }
 
 /// Kulla-Conty: the colour of the multiple-scattering lobe, F_avg^2 A_avg / (1 - F_avg (1 - A_avg)),
 /// with F_avg = f0 + (1 - f0) / 21 the hemispherical average of Schlick's Fresnel.
-fn multiple_scattering_fresnel(f0: Vec3, a_avg: f32) -> Vec3 {
-    let f_avg = f0 + (Vec3::ONE - f0) / 21.0;
-    f_avg * f_avg * a_avg / (Vec3::ONE - f_avg * (1.0 - a_avg))
+fn multiple_scattering_fresnel(f0: Spectrum, a_avg: f32) -> Spectrum {
+    let f_avg = f0 + (Spectrum::ONE - f0) / 21.0;
+    f_avg * f_avg * a_avg / (Spectrum::ONE - f_avg * (1.0 - a_avg))
+}
+
+/// Mirror image of `wo` about the normal.
+fn mirror(wo: Vec3) -> Vec3 {
+    Vec3::new(-wo.x, -wo.y, wo.z)
 }
 
 /// Probabilities of the sampling techniques at one wo, summing to 1.
 struct Lobes {
-    /// VNDF reflection with the base alpha (metal and dielectric specular).
+    /// Reflection with the base alpha (metal and dielectric specular): VNDF, or a delta.
     specular: f32,
     /// Cosine hemisphere (diffuse, sheen, multiple scattering).
     cosine: f32,
-    /// VNDF reflection with the clearcoat's alpha.
+    /// Reflection with the clearcoat's alpha: VNDF, or a delta.
     clearcoat: f32,
     /// The transmitting interface.
     interface: f32,
+}
+
+/// The delta lobes at one wo: the probabilities that `sample` picks the mirror direction
+/// and the transmitted one, and the interface's reflectance there.
+struct Deltas {
+    reflection: f32,
+    transmission: f32,
+    interface_reflectance: f32,
 }
 
 impl MetalRough {
@@ -114,6 +134,16 @@ impl MetalRough {
 
     fn roughness(&self) -> f32 {
         self.alpha.sqrt()
+    }
+
+    /// Whether the base's GGX lobes are deltas.
+    fn smooth(&self) -> bool {
+        is_smooth(self.alpha)
+    }
+
+    /// Whether the clearcoat is present and a delta.
+    fn smooth_coat(&self) -> bool {
+        self.clearcoat > 0.0 && is_smooth(self.clearcoat_alpha)
     }
 
     /// The transmitting interface. Between equal indices (eta 1) light goes straight through
@@ -131,6 +161,31 @@ impl MetalRough {
     /// Whether any light passes to the other side.
     pub fn transmits(&self) -> bool {
         self.transmission > 0.0 && self.metallic < 1.0
+    }
+
+    /// Relative index crossed by light the interface transmits (1 through a thin wall).
+    pub fn crossed_eta(&self) -> f32 {
+        self.interface().crossed_eta()
+    }
+
+    /// The lobes present: a delta where a GGX lobe is smooth, glossy otherwise.
+    pub fn flags(&self) -> LobeFlags {
+        let mut flags = LobeFlags::REFLECTION;
+        if self.transmits() {
+            flags |= LobeFlags::TRANSMISSION;
+        }
+        let diffuse_base = self.metallic < 1.0 && self.transmission < 1.0;
+        if diffuse_base || self.sheen.max_element() > 0.0 || !self.smooth() {
+            flags |= LobeFlags::DIFFUSE;
+        }
+        let base_lobes = self.metallic > 0.0 || self.specular > 0.0 || self.transmits();
+        if (base_lobes && !self.smooth()) || (self.clearcoat > 0.0 && !self.smooth_coat()) {
+            flags |= LobeFlags::GLOSSY;
+        }
+        if (base_lobes && self.smooth()) || self.smooth_coat() {
+            flags |= LobeFlags::SPECULAR;
+        }
+        flags
     }
 
     /// Albedo of the sheen layer at cosine `mu` (0 without sheen).
@@ -156,11 +211,11 @@ impl MetalRough {
     }
 
     /// Kulla-Conty lobe for (mu_o, mu_i) without its colour: (1 - A(o)) (1 - A(i)) / (pi (1 - A_avg)),
-    /// and A_avg.
+    /// and A_avg. A smooth lobe scatters once: no compensation.
     fn multiple_scattering(&self, mu_o: f32, mu_i: f32) -> (f32, f32) {
         let r = self.roughness();
         let a_avg = ggx_average_albedo(r, 1.0);
-        if 1.0 - a_avg < 1e-6 {
+        if 1.0 - a_avg < 1e-6 || self.smooth() {
             return (0.0, a_avg);
         }
         let lobe = (1.0 - ggx_albedo(mu_o, r, 1.0)) * (1.0 - ggx_albedo(mu_i, r, 1.0)) * FRAC_1_PI / (1.0 - a_avg);
@@ -172,7 +227,8 @@ impl MetalRough {
     fn layer_albedo(&self, mu: f32, f0: f32) -> (f32, f32) {
         let r = self.roughness();
         let a_avg = ggx_average_albedo(r, 1.0);
-        let f_ms = multiple_scattering_fresnel(Vec3::splat(f0), a_avg).x;
+        let f_ms =
+            if self.smooth() { 0.0 } else { multiple_scattering_fresnel(Spectrum::splat(f0), a_avg).max_element() };
         let e = ggx_albedo(mu, r, f0) + f_ms * (1.0 - ggx_albedo(mu, r, 1.0));
         let e_avg = ggx_average_albedo(r, f0) + f_ms * (1.0 - a_avg);
         (self.specular * e, self.specular * e_avg)
@@ -192,57 +248,74 @@ impl MetalRough {
         ((1.0 - e_o) * (1.0 - e_i) / (1.0 - avg)).max(0.0)
     }
 
-    /// The opaque core's reflection (metal and dielectric-over-diffuse), f |cos theta_i|.
-    fn opaque_core(&self, wo: Vec3, wi: Vec3, h: Vec3) -> Vec3 {
-        let ggx = self.ggx();
+    /// The opaque core's continuous reflection (rough metal and dielectric specular, their
+    /// multiple scattering, the diffuse base), f |cos theta_i|, with D(h) of the base.
+    fn opaque_core(&self, wo: Vec3, wi: Vec3, h: Vec3, d: f32) -> Spectrum {
         let voh = wo.dot(h);
-        let single = ggx.d(h) * ggx.g2(wo, wi) / (4.0 * wo.z);
+        let single = if self.smooth() { 0.0 } else { d * self.ggx().g2(wo, wi) / (4.0 * wo.z) };
         let (ms, a_avg) = self.multiple_scattering(wo.z, wi.z);
         let ms = ms * wi.z;
         let metal = if self.metallic > 0.0 {
             schlick(self.base, voh) * single + multiple_scattering_fresnel(self.base, a_avg) * ms
         } else {
-            Vec3::ZERO
+            Spectrum::ZERO
         };
         let dielectric = if self.metallic < 1.0 && self.transmission < 1.0 {
-            let specular = self.specular
-                * (schlick(self.dielectric_f0, voh) * single
-                    + multiple_scattering_fresnel(self.dielectric_f0, a_avg) * ms);
+            let specular = (schlick(self.dielectric_f0, voh) * single
+                + multiple_scattering_fresnel(self.dielectric_f0, a_avg) * ms)
+                * self.specular;
             let diffuse = self.base * (FRAC_1_PI * wi.z * self.base_weight(wo.z, wi.z));
             (diffuse + specular) * (1.0 - self.transmission)
         } else {
-            Vec3::ZERO
+            Spectrum::ZERO
         };
         dielectric * (1.0 - self.metallic) + metal * self.metallic
     }
 
-    /// f |cos theta_i| for wo above the surface and wi on either side.
-    pub fn eval_cos(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+    /// f |cos theta_i| of the continuous lobes and the density of `sample` choosing them,
+    /// for wo above the surface and wi on either side.
+    pub fn eval_pdf(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> (Spectrum, f32) {
+        self.eval_pdf_with(&self.lobes(wo), wo, wi, mode)
+    }
+
+    /// Density with which `sample` returns `wi` from a continuous lobe.
+    pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        self.eval_pdf(wo, wi, TransportMode::Radiance).1
+    }
+
+    fn eval_pdf_with(&self, p: &Lobes, wo: Vec3, wi: Vec3, mode: TransportMode) -> (Spectrum, f32) {
         let (sheen_w, coat_w) = self.layer_weights(wo.z, wi.z.abs());
-        let interface = if self.transmits() {
+        let (interface, interface_pdf) = if self.transmits() && !self.smooth() {
             let tint = if wi.z > 0.0 { self.specular_tint } else { self.base };
-            tint * (self.interface().eval_cos(wo, wi) * self.transmission * (1.0 - self.metallic))
+            let (f, pdf) = self.interface().eval_pdf(wo, wi, mode);
+            (tint * (f * self.transmission * (1.0 - self.metallic)), p.interface * pdf)
         } else {
-            Vec3::ZERO
+            (Spectrum::ZERO, 0.0)
         };
         if wi.z <= 0.0 {
-            return interface * (sheen_w * coat_w);
+            return (interface * (sheen_w * coat_w), interface_pdf);
         }
         let h = (wo + wi).normalize_or_zero();
         if h == Vec3::ZERO {
-            return Vec3::ZERO;
+            return (Spectrum::ZERO, 0.0);
         }
-        let mut f = (self.opaque_core(wo, wi, h) + interface) * coat_w;
-        if self.clearcoat > 0.0 {
+        let ggx = self.ggx();
+        let d = if self.smooth() { 0.0 } else { ggx.d(h) };
+        let mut f = (self.opaque_core(wo, wi, h, d) + interface) * coat_w;
+        let mut pdf =
+            interface_pdf + p.cosine * warp::cos_hemisphere_pdf(wi.z) + p.specular * ggx.reflection_pdf(wo, d);
+        if self.clearcoat > 0.0 && !self.smooth_coat() {
             let coat = Ggx { alpha: self.clearcoat_alpha };
+            let dc = coat.d(h);
             let fresnel = CLEARCOAT_F0 + (1.0 - CLEARCOAT_F0) * schlick_weight(wo.dot(h));
-            f += Vec3::splat(self.clearcoat * fresnel * coat.d(h) * coat.g2(wo, wi) / (4.0 * wo.z));
+            f += Spectrum::splat(self.clearcoat * fresnel * dc * coat.g2(wo, wi) / (4.0 * wo.z));
+            pdf += p.clearcoat * coat.reflection_pdf(wo, dc);
         }
         f *= sheen_w;
         if self.sheen.max_element() > 0.0 {
             f += self.sheen_lobe().eval_cos(wo, wi);
         }
-        f
+        (f, pdf)
     }
 
     /// Probabilities of the sampling techniques, from each lobe's albedo estimated at wo.
@@ -254,15 +327,15 @@ impl MetalRough {
         let (m, tr) = (self.metallic, if self.transmits() { self.transmission } else { 0.0 });
         let (ms, a_avg) = self.multiple_scattering(mu, mu);
         let ms_albedo = if ms > 0.0 { 1.0 - ggx_albedo(mu, self.roughness(), 1.0) } else { 0.0 };
-        let metal = luminance(schlick(self.base, mu));
-        let metal_ms = luminance(multiple_scattering_fresnel(self.base, a_avg)) * ms_albedo;
+        let metal = schlick(self.base, mu).luminance();
+        let metal_ms = multiple_scattering_fresnel(self.base, a_avg).luminance() * ms_albedo;
         let f_d = self.specular * schlick(self.dielectric_f0, mu).max_element();
         let (layer, _) = self.layer_albedo(mu, self.dielectric_f0.max_element());
-        let diffuse = (1.0 - layer).max(0.0) * luminance(self.base);
+        let diffuse = (1.0 - layer).max(0.0) * self.base.luminance();
         let specular = below * (m * metal + (1.0 - m) * (1.0 - tr) * f_d);
         let cosine = sheen + below * (m * metal_ms + (1.0 - m) * (1.0 - tr) * diffuse);
         let clearcoat = (1.0 - sheen) * coat;
-        let interface = below * (1.0 - m) * tr * luminance(self.base).max(f_d);
+        let interface = below * (1.0 - m) * tr * self.base.luminance().max(f_d);
         let total = specular + cosine + clearcoat + interface;
         if total > 0.0 && total.is_finite() {
             Lobes {
@@ -276,33 +349,96 @@ impl MetalRough {
         }
     }
 
-    /// Chooses a technique with `u_lobe`, then a direction.
-    pub fn sample_direction(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<Vec3> {
-        let p = self.lobes(wo);
-        let mut x = u_lobe;
-        if x < p.interface {
-            return self.interface().sample(wo, x / p.interface, u);
+    /// The delta lobes' probabilities at wo under the technique probabilities `p`.
+    fn deltas(&self, p: &Lobes, wo: Vec3) -> Deltas {
+        let mut d = Deltas { reflection: 0.0, transmission: 0.0, interface_reflectance: 0.0 };
+        if self.smooth() {
+            d.reflection += p.specular;
+            if p.interface > 0.0 {
+                let r = self.interface().reflectance(wo.z);
+                d.interface_reflectance = r;
+                d.reflection += p.interface * r;
+                d.transmission = p.interface * (1.0 - r);
+            }
         }
-        x -= p.interface;
-        let wi = if x < p.specular {
-            reflect(wo, self.ggx().sample_visible_normal(wo, u))
-        } else if x < p.specular + p.clearcoat {
-            reflect(wo, Ggx { alpha: self.clearcoat_alpha }.sample_visible_normal(wo, u))
-        } else {
-            warp::cos_hemisphere(u)
-        };
-        (wi.z > 0.0).then_some(wi)
+        if self.smooth_coat() {
+            d.reflection += p.clearcoat;
+        }
+        d
     }
 
-    /// Mixture pdf of `sample_direction`.
-    pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+    /// Probability that `sample` picks a delta lobe at wo.
+    pub fn specular_probability(&self, wo: Vec3) -> f32 {
         let p = self.lobes(wo);
-        let interface = if p.interface > 0.0 { p.interface * self.interface().pdf(wo, wi) } else { 0.0 };
-        if wi.z <= 0.0 {
-            return interface;
+        let d = self.deltas(&p, wo);
+        d.reflection + d.transmission
+    }
+
+    /// f |cos| integrated over the mirror direction's delta: what the smooth lobes reflect.
+    fn delta_reflection(&self, wo: Vec3, r: f32) -> Spectrum {
+        let mu = wo.z;
+        let (sheen_w, coat_w) = self.layer_weights(mu, mu);
+        let mut base = Spectrum::ZERO;
+        if self.smooth() {
+            let (m, tr) = (self.metallic, if self.transmits() { self.transmission } else { 0.0 });
+            let dielectric = schlick(self.dielectric_f0, mu) * (self.specular * (1.0 - tr));
+            base = schlick(self.base, mu) * m + dielectric * (1.0 - m);
+            if tr > 0.0 {
+                base += self.specular_tint * (r * tr * (1.0 - m));
+            }
         }
-        let coat =
-            if p.clearcoat > 0.0 { p.clearcoat * Ggx { alpha: self.clearcoat_alpha }.pdf_reflect(wo, wi) } else { 0.0 };
-        interface + coat + p.specular * self.ggx().pdf_reflect(wo, wi) + p.cosine * warp::cos_hemisphere_pdf(wi.z)
+        let mut f = base * coat_w;
+        if self.smooth_coat() {
+            f += Spectrum::splat(self.clearcoat * (CLEARCOAT_F0 + (1.0 - CLEARCOAT_F0) * schlick_weight(mu)));
+        }
+        f * sheen_w
+    }
+
+    /// f |cos| integrated over the transmitted direction `wi`'s delta.
+    fn delta_transmission(&self, wo: Vec3, wi: Vec3, r: f32, mode: TransportMode) -> Spectrum {
+        let (sheen_w, coat_w) = self.layer_weights(wo.z, wi.z.abs());
+        let share = (1.0 - r) * self.transmission * (1.0 - self.metallic) * self.interface().transmission_scale(mode);
+        self.base * (share * sheen_w * coat_w)
+    }
+
+    /// Chooses a technique with `u_lobe` (the deltas first: `u_lobe` below
+    /// `specular_probability` picks one), then a direction from `u`.
+    pub fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2, mode: TransportMode) -> Option<BsdfSample> {
+        let p = self.lobes(wo);
+        let deltas = self.deltas(&p, wo);
+        let mut x = u_lobe;
+        if x < deltas.reflection {
+            let weight = self.delta_reflection(wo, deltas.interface_reflectance) / deltas.reflection;
+            let flags = LobeFlags::REFLECTION | LobeFlags::SPECULAR;
+            return Some(BsdfSample { wi: mirror(wo), weight, pdf: deltas.reflection, flags, eta: 1.0 });
+        }
+        x -= deltas.reflection;
+        if x < deltas.transmission {
+            let interface = self.interface();
+            let wi = interface.smooth_transmission(wo)?;
+            let weight = self.delta_transmission(wo, wi, deltas.interface_reflectance, mode) / deltas.transmission;
+            let flags = LobeFlags::TRANSMISSION | LobeFlags::SPECULAR;
+            return Some(BsdfSample { wi, weight, pdf: deltas.transmission, flags, eta: interface.crossed_eta() });
+        }
+        x -= deltas.transmission;
+        let rough = !self.smooth();
+        let (p_interface, p_specular) = if rough { (p.interface, p.specular) } else { (0.0, 0.0) };
+        let p_coat = if self.smooth_coat() { 0.0 } else { p.clearcoat };
+        let above = |w: Vec3| (w.z > 0.0).then_some(w);
+        let (wi, glossy) = if x < p_interface {
+            (self.interface().sample(wo, x / p_interface, u)?, true)
+        } else if x < p_interface + p_specular {
+            (above(reflect(wo, self.ggx().sample_visible_normal(wo, u)))?, true)
+        } else if x < p_interface + p_specular + p_coat {
+            (above(reflect(wo, Ggx { alpha: self.clearcoat_alpha }.sample_visible_normal(wo, u)))?, true)
+        } else {
+            (above(warp::cos_hemisphere(u))?, false)
+        };
+        let transmitted = wi.z < 0.0;
+        let (f, pdf) = self.eval_pdf_with(&p, wo, wi, mode);
+        let side = if transmitted { LobeFlags::TRANSMISSION } else { LobeFlags::REFLECTION };
+        let flags = side | if glossy { LobeFlags::GLOSSY } else { LobeFlags::DIFFUSE };
+        let eta = if transmitted { self.interface().crossed_eta() } else { 1.0 };
+        Some(BsdfSample { wi, weight: f / pdf, pdf, flags, eta })
     }
 }

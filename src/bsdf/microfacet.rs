@@ -52,21 +52,21 @@ impl Ggx {
     }
 
     /// Pdf of the direction wi = reflect(wo, h) when h is sampled by
-    /// `sample_visible_normal`: G1(wo) D(h) / (4 cos theta_o).
-    pub fn pdf_reflect(&self, wo: Vec3, wi: Vec3) -> f32 {
-        let h = (wo + wi).normalize_or_zero();
-        if h == Vec3::ZERO || wo.z <= 0.0 {
-            return 0.0;
-        }
-        self.g1(wo) * self.d(h) / (4.0 * wo.z)
-    }
-
-    /// Density of `sample_visible_normal` at half vector h: G1(wo) D(h) max(0, wo.h) / cos theta_o.
-    pub fn pdf_visible_normal(&self, wo: Vec3, h: Vec3) -> f32 {
+    /// `sample_visible_normal`, given d = D(h): G1(wo) D(h) / (4 cos theta_o).
+    pub fn reflection_pdf(&self, wo: Vec3, d: f32) -> f32 {
         if wo.z <= 0.0 {
             return 0.0;
         }
-        self.g1(wo) * self.d(h) * wo.dot(h).max(0.0) / wo.z
+        self.g1(wo) * d / (4.0 * wo.z)
+    }
+
+    /// Density of `sample_visible_normal` at half vector h, given d = D(h):
+    /// G1(wo) D(h) max(0, wo.h) / cos theta_o.
+    pub fn visible_normal_pdf(&self, wo: Vec3, h: Vec3, d: f32) -> f32 {
+        if wo.z <= 0.0 {
+            return 0.0;
+        }
+        self.g1(wo) * d * wo.dot(h).max(0.0) / wo.z
     }
 }
 

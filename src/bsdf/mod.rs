@@ -1,6 +1,15 @@
-//! BSDFs in the local shading frame (normal = +z), as a closed enum. One contract for all:
-//! `eval_cos` is f |cos theta_i|, `sample` returns a direction with weight f |cos| / pdf,
-//! `pdf` is the solid-angle density of `sample`. Degenerate samples are rejected here.
+//! BSDFs in the local shading frame (normal = +z), as a closed enum, with one contract
+//! for all (after Mitsuba 3's `BSDF` and pbrt-v4's `BSDF::Sample_f`):
+//! - `eval` is f |cos theta_i| of the non-delta lobes, `pdf` the solid-angle density with
+//!   which `sample` returns a direction from them, `eval_pdf` both at once;
+//! - `sample` returns a direction with its lobe flags, the relative index of refraction it
+//!   crossed, its pdf and its weight f |cos| / pdf. Delta (specular) lobes are sampled
+//!   only here: their pdf is the discrete probability of choosing them, and `eval` and
+//!   `pdf` are zero for them in every direction;
+//! - the transport mode says whether radiance or importance flows, which decides the
+//!   1/eta^2 of refraction (Veach 1997, section 5.2).
+//!
+//! Degenerate samples (zero pdf, zero or non-finite weight) are rejected in one place.
 
 pub mod albedo;
 mod dielectric;
@@ -13,8 +22,55 @@ pub mod sheen;
 pub use diffuse::Lambert;
 pub use metal_rough::MetalRough;
 
-use crate::math::warp;
+use crate::spectrum::Spectrum;
 use glam::{Vec2, Vec3};
+
+/// Below this GGX alpha a lobe is an exact delta (pbrt-v4's `EffectivelySmooth`):
+/// roughness under about 0.03 renders as a perfect mirror or a perfectly smooth interface.
+pub const SMOOTH_ALPHA: f32 = 1e-3;
+
+/// Whether a GGX lobe of width `alpha` is treated as a delta lobe.
+pub fn is_smooth(alpha: f32) -> bool {
+    alpha < SMOOTH_ALPHA
+}
+
+bitflags::bitflags! {
+    /// What a lobe (or the set of lobes of a BSDF) does with light.
+    #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+    pub struct LobeFlags: u8 {
+        /// Light leaves on the side it arrived from.
+        const REFLECTION = 1;
+        /// Light passes to the other side.
+        const TRANSMISSION = 1 << 1;
+        /// Spread over the whole hemisphere (Lambert, sheen, multiple scattering).
+        const DIFFUSE = 1 << 2;
+        /// A finite-width lobe (rough microfacets, measured).
+        const GLOSSY = 1 << 3;
+        /// A delta lobe: one direction (a mirror, a smooth interface).
+        const SPECULAR = 1 << 4;
+    }
+}
+
+impl LobeFlags {
+    /// Whether some lobe is not a delta (so that light sampling can find it).
+    pub fn has_non_specular(self) -> bool {
+        self.intersects(Self::DIFFUSE | Self::GLOSSY)
+    }
+
+    /// Whether some lobe is a delta.
+    pub fn has_specular(self) -> bool {
+        self.contains(Self::SPECULAR)
+    }
+}
+
+/// Which quantity flows along the path (pbrt-v4's `TransportMode`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TransportMode {
+    /// Radiance, traced from the camera: refraction into a denser medium scales it by 1/eta^2.
+    Radiance,
+    /// Importance, traced from the lights: no 1/eta^2 (the adjoint BSDF).
+    Importance,
+}
 
 /// A sampled incident direction.
 #[derive(Clone, Copy, Debug)]
@@ -22,19 +78,32 @@ pub struct BsdfSample {
     /// Incident direction (local frame, unit length).
     pub wi: Vec3,
     /// f(wo, wi) |cos theta_i| / pdf.
-    pub weight: Vec3,
-    /// Solid-angle pdf of `wi`.
+    pub weight: Spectrum,
+    /// Solid-angle pdf of `wi`, or for a delta lobe the probability of having chosen it.
     pub pdf: f32,
+    /// The lobe that produced the sample.
+    pub flags: LobeFlags,
+    /// Relative index of refraction n_other / n_wo crossed (1 for reflection and thin walls).
+    pub eta: f32,
 }
 
-/// How `Bsdf::sample` chooses directions (the textbook's "importance sampling" toggle).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Strategy {
-    /// Directions in proportion to the BSDF (cosine for diffuse, VNDF for glossy).
-    Importance,
-    /// Directions uniform over the hemisphere, pdf 1 / (2 pi); over the sphere, pdf
-    /// 1 / (4 pi), for BSDFs that transmit.
-    Uniform,
+impl BsdfSample {
+    /// Whether the sample came from a delta lobe.
+    pub fn is_specular(&self) -> bool {
+        self.flags.contains(LobeFlags::SPECULAR)
+    }
+
+    /// The sample, if its pdf is positive and finite and its weight finite and not zero.
+    pub fn checked(self) -> Option<Self> {
+        let valid =
+            self.pdf > 0.0 && self.pdf.is_finite() && self.weight.is_finite() && self.weight.max_element() > 0.0;
+        valid.then_some(self)
+    }
+
+    /// Whether the sample crosses the surface.
+    pub fn is_transmission(&self) -> bool {
+        self.flags.contains(LobeFlags::TRANSMISSION)
+    }
 }
 
 /// The reflection models this renderer knows; measured ones borrow their table from the
@@ -43,70 +112,105 @@ pub enum Strategy {
 pub enum Bsdf<'a> {
     /// Ideal diffuse reflection.
     Lambert(Lambert),
-    /// glTF metallic-roughness BRDF (spec Appendix B, with KHR_materials_specular).
+    /// glTF metallic-roughness BSDF (spec Appendix B, with KHR_materials_specular and the
+    /// layering extensions).
     MetalRough(MetalRough),
     /// A measured isotropic BRDF (MERL table).
     Measured(&'a measured::MerlTable),
 }
 
 impl Bsdf<'_> {
+    /// The lobes this BSDF has.
+    pub fn flags(&self) -> LobeFlags {
+        match self {
+            Bsdf::Lambert(_) => LobeFlags::REFLECTION | LobeFlags::DIFFUSE,
+            Bsdf::MetalRough(b) => b.flags(),
+            Bsdf::Measured(_) => LobeFlags::REFLECTION | LobeFlags::GLOSSY,
+        }
+    }
+
     /// Whether light can pass through to the other side (wi below the surface).
     pub fn transmits(&self) -> bool {
-        matches!(self, Bsdf::MetalRough(b) if b.transmits())
+        self.flags().contains(LobeFlags::TRANSMISSION)
+    }
+
+    /// Relative index of refraction crossed by transmitted light (1 for thin walls and
+    /// for BSDFs that only reflect).
+    pub fn eta(&self) -> f32 {
+        match self {
+            Bsdf::MetalRough(b) if b.transmits() => b.crossed_eta(),
+            _ => 1.0,
+        }
     }
 
     /// Whether `wi` lies where this BSDF can be non-zero for a wo above the surface.
-    fn reaches(&self, wo: Vec3, wi: Vec3) -> bool {
+    pub fn reaches(&self, wo: Vec3, wi: Vec3) -> bool {
         wo.z > 0.0 && (wi.z > 0.0 || (wi.z < 0.0 && self.transmits()))
     }
 
-    /// f(wo, wi) |cos theta_i|; zero unless wo is above the surface and wi above it too, or
-    /// below it for a transmitting BSDF.
-    pub fn eval_cos(&self, wo: Vec3, wi: Vec3) -> Vec3 {
-        if !self.reaches(wo, wi) {
-            return Vec3::ZERO;
-        }
-        match self {
-            Bsdf::Lambert(b) => b.eval_cos(wi),
-            Bsdf::MetalRough(b) => b.eval_cos(wo, wi),
-            Bsdf::Measured(t) => t.eval(wo, wi) * wi.z,
-        }
+    /// f(wo, wi) |cos theta_i| of the non-delta lobes; zero unless wo is above the surface
+    /// and wi above it too, or below it for a transmitting BSDF.
+    pub fn eval(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> Spectrum {
+        self.eval_pdf(wo, wi, mode).0
     }
 
-    /// Solid-angle pdf with which `sample` under `strategy` returns `wi`.
-    pub fn pdf(&self, wo: Vec3, wi: Vec3, strategy: Strategy) -> f32 {
+    /// Solid-angle pdf with which `sample` returns `wi` from a non-delta lobe.
+    pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         if !self.reaches(wo, wi) {
             return 0.0;
         }
-        match (strategy, self) {
-            (Strategy::Uniform, _) if self.transmits() => warp::UNIFORM_SPHERE_PDF,
-            (Strategy::Uniform, _) => warp::UNIFORM_HEMISPHERE_PDF,
-            (Strategy::Importance, Bsdf::Lambert(_)) => warp::cos_hemisphere_pdf(wi.z),
-            (Strategy::Importance, Bsdf::MetalRough(b)) => b.pdf(wo, wi),
-            (Strategy::Importance, Bsdf::Measured(t)) => t.pdf(wo, wi),
+        match self {
+            Bsdf::Lambert(_) => crate::math::warp::cos_hemisphere_pdf(wi.z),
+            Bsdf::MetalRough(b) => b.pdf(wo, wi),
+            Bsdf::Measured(t) => t.pdf(wo, wi),
         }
     }
 
-    /// Samples an incident direction for outgoing `wo` from the uniforms `u_lobe`, `u`.
-    /// Returns None for directions with zero pdf or zero or non-finite weight.
-    pub fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2, strategy: Strategy) -> Option<BsdfSample> {
+    /// `eval` and `pdf` together, sharing the work they have in common (Mitsuba 3's `eval_pdf`).
+    pub fn eval_pdf(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> (Spectrum, f32) {
+        if !self.reaches(wo, wi) {
+            return (Spectrum::ZERO, 0.0);
+        }
+        match self {
+            Bsdf::Lambert(b) => (b.eval(wi), crate::math::warp::cos_hemisphere_pdf(wi.z)),
+            Bsdf::MetalRough(b) => b.eval_pdf(wo, wi, mode),
+            Bsdf::Measured(t) => (Spectrum::from_rgb(t.eval(wo, wi) * wi.z), t.pdf(wo, wi)),
+        }
+    }
+
+    /// Probability that `sample` chooses a delta lobe at `wo`. `sample` chooses one exactly
+    /// when `u_lobe` is below it, so an integrator can sample the other lobes its own way.
+    pub fn specular_probability(&self, wo: Vec3) -> f32 {
+        match self {
+            Bsdf::MetalRough(b) if wo.z > 0.0 => b.specular_probability(wo),
+            _ => 0.0,
+        }
+    }
+
+    /// Samples an incident direction for outgoing `wo` from the uniforms `u_lobe` (which
+    /// lobe) and `u` (where in it). None for directions with zero pdf or a zero or
+    /// non-finite weight.
+    pub fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2, mode: TransportMode) -> Option<BsdfSample> {
         if wo.z <= 0.0 {
             return None;
         }
-        let wi = match (strategy, self) {
-            (Strategy::Uniform, _) if self.transmits() => warp::uniform_sphere(u),
-            (Strategy::Uniform, _) => warp::uniform_hemisphere(u),
-            (Strategy::Importance, Bsdf::Lambert(_)) => warp::cos_hemisphere(u),
-            (Strategy::Importance, Bsdf::MetalRough(b)) => b.sample_direction(wo, u_lobe, u)?,
-            (Strategy::Importance, Bsdf::Measured(t)) => t.sample_direction(wo, u_lobe, u)?,
+        let sample = match self {
+            Bsdf::Lambert(_) => {
+                let wi = crate::math::warp::cos_hemisphere(u);
+                self.continuous_sample(wo, wi, LobeFlags::REFLECTION | LobeFlags::DIFFUSE, mode)
+            }
+            Bsdf::MetalRough(b) => b.sample(wo, u_lobe, u, mode)?,
+            Bsdf::Measured(t) => {
+                let wi = t.sample_direction(wo, u_lobe, u)?;
+                self.continuous_sample(wo, wi, LobeFlags::REFLECTION | LobeFlags::GLOSSY, mode)
+            }
         };
-        let pdf = self.pdf(wo, wi, strategy);
-        let f = self.eval_cos(wo, wi);
-        let weight = f / pdf;
-        (pdf > 0.0 && pdf.is_finite() && weight.is_finite() && weight.max_element() > 0.0).then_some(BsdfSample {
-            wi,
-            weight,
-            pdf,
-        })
+        sample.checked()
+    }
+
+    /// A sample of a continuous lobe towards `wi`, weighted by the whole mixture.
+    fn continuous_sample(&self, wo: Vec3, wi: Vec3, flags: LobeFlags, mode: TransportMode) -> BsdfSample {
+        let (f, pdf) = self.eval_pdf(wo, wi, mode);
+        BsdfSample { wi, weight: f / pdf, pdf, flags, eta: 1.0 }
     }
 }

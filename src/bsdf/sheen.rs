@@ -5,6 +5,7 @@
 //! The lobe is therefore divided by max(1, E(wo), E(wi)), which keeps it symmetric and its
 //! albedo at most 1.
 
+use crate::spectrum::Spectrum;
 use glam::Vec3;
 use std::f32::consts::{PI, TAU};
 use std::sync::OnceLock;
@@ -18,8 +19,8 @@ const N: usize = 32;
 /// A sheen lobe of colour `color` and width `alpha` (sheenRoughness^2).
 #[derive(Clone, Copy, Debug)]
 pub struct Sheen {
-    /// Linear sheen colour.
-    pub color: Vec3,
+    /// Sheen colour.
+    pub color: Spectrum,
     /// Width of the fibre distribution.
     pub alpha: f32,
 }
@@ -43,7 +44,7 @@ fn white_eval_cos(alpha: f32, wo: Vec3, wi: Vec3) -> f32 {
 
 impl Sheen {
     /// f |cos theta_i| for wo, wi above the surface (normalised as described above).
-    pub fn eval_cos(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+    pub fn eval_cos(&self, wo: Vec3, wi: Vec3) -> Spectrum {
         let norm = self.raw_albedo(wo.z).max(self.raw_albedo(wi.z)).max(1.0);
         self.color * (white_eval_cos(self.alpha, wo, wi) / norm)
     }
@@ -105,7 +106,7 @@ mod tests {
     fn the_albedo_table_matches_finer_integration() {
         for (mu, r) in [(0.5f32, 0.5f32), (0.9, 1.0), (0.1, 0.3), (1.0, 0.7), (0.05, 0.1)] {
             let alpha = (r * r).max(MIN_SHEEN_ALPHA);
-            let s = Sheen { color: Vec3::ONE, alpha };
+            let s = Sheen { color: Spectrum::ONE, alpha };
             let direct = integrate(alpha, mu, 400);
             let table = s.raw_albedo(mu);
             assert!((table - direct).abs() < 3e-2 * direct.max(0.3), "E({mu}, {r}): {table} vs {direct}");

@@ -1,10 +1,11 @@
-//! Command-line arguments (clap derive) and how they resolve into render settings.
+//! Command-line arguments (clap derive, with every render and display setting generated
+//! from the parameter tables) and how they resolve into a view.
 
 use crate::config::ViewFile;
-use crate::film::tonemap::{Display, Tonemap};
-use crate::integrator::{Directions, Integrator, LightSampling, PixelSampling, Robustness, SamplerKind, Settings};
-use crate::scene::{camera::Camera, environment::EnvSettings};
-use clap::{Args, Parser, Subcommand, ValueEnum};
+use crate::film::tonemap::DISPLAY;
+use crate::integrator::{Settings, settings::SETTINGS};
+use crate::params::{Domain, Param, Value};
+use clap::{Arg, ArgMatches, Args, FromArgMatches, Parser, Subcommand, ValueEnum};
 use std::path::PathBuf;
 
 /// Lucent: a physically based path tracer for glTF scenes. With no command, opens the
@@ -28,15 +29,6 @@ pub enum Command {
     Bench(BenchArgs),
 }
 
-/// On/off switch values.
-#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Switch {
-    /// Enabled.
-    On,
-    /// Disabled.
-    Off,
-}
-
 /// A numerical-robustness mechanism that `--without` can switch off.
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Mechanism {
@@ -49,14 +41,91 @@ pub enum Mechanism {
 }
 
 impl Mechanism {
-    /// `robustness` with this mechanism switched off.
-    pub fn disable(self, mut robustness: Robustness) -> Robustness {
+    /// Every mechanism.
+    pub const ALL: [Mechanism; 3] = [Mechanism::Watertight, Mechanism::Offsets, Mechanism::Terminator];
+
+    /// `settings` with this mechanism switched off.
+    pub fn disable(self, mut settings: Settings) -> Settings {
         match self {
-            Mechanism::Watertight => robustness.watertight = false,
-            Mechanism::Offsets => robustness.offset_origins = false,
-            Mechanism::Terminator => robustness.terminator = false,
+            Mechanism::Watertight => settings.watertight = false,
+            Mechanism::Offsets => settings.offset_origins = false,
+            Mechanism::Terminator => settings.terminator = false,
         }
-        robustness
+        settings
+    }
+}
+
+/// Every parameter of the settings and display tables as a `--name VALUE` option, each
+/// given one parsed and range-checked by its table entry.
+#[derive(Debug, Clone, Default)]
+pub struct ParamArgs {
+    /// Render settings given on the command line.
+    pub settings: Vec<(&'static str, Value)>,
+    /// Display settings given on the command line.
+    pub display: Vec<(&'static str, Value)>,
+}
+
+impl ParamArgs {
+    /// Whether `--name` was given.
+    pub fn given(&self, name: &str) -> bool {
+        self.settings.iter().chain(&self.display).any(|(n, _)| *n == name)
+    }
+}
+
+/// The clap option of one table entry: its help, range and default come from the table.
+fn param_arg<T: Default>(p: &'static Param<T>) -> Arg {
+    let choices = match p.domain {
+        Domain::Choice(options) => {
+            let list: Vec<String> = options.iter().map(|c| format!("{}: {}", c.name, c.help)).collect();
+            format!(" ({})", list.join("; "))
+        }
+        _ => format!(" ({})", p.range()),
+    };
+    let arg = Arg::new(p.name)
+        .long(p.name)
+        .help(format!("{}{choices} [default: {}]", p.help, p.default_value()))
+        .value_name("VALUE")
+        .allow_negative_numbers(true)
+        .allow_hyphen_values(true);
+    match p.domain {
+        // A bare switch means on: `--allow-expensive`.
+        Domain::Switch => arg.num_args(0..=1).default_missing_value("on"),
+        _ => arg,
+    }
+}
+
+fn parsed<T>(table: &'static [Param<T>], m: &ArgMatches) -> Result<Vec<(&'static str, Value)>, clap::Error> {
+    let mut out = Vec::new();
+    for p in table {
+        if let Some(text) = m.get_one::<String>(p.name) {
+            let value = p
+                .parse(text)
+                .map_err(|e| clap::Error::raw(clap::error::ErrorKind::ValueValidation, format!("--{}: {e}", p.name)))?;
+            out.push((p.name, value));
+        }
+    }
+    Ok(out)
+}
+
+impl FromArgMatches for ParamArgs {
+    fn from_arg_matches(m: &ArgMatches) -> Result<Self, clap::Error> {
+        Ok(Self { settings: parsed(SETTINGS, m)?, display: parsed(DISPLAY, m)? })
+    }
+
+    fn update_from_arg_matches(&mut self, m: &ArgMatches) -> Result<(), clap::Error> {
+        *self = Self::from_arg_matches(m)?;
+        Ok(())
+    }
+}
+
+impl Args for ParamArgs {
+    fn augment_args(cmd: clap::Command) -> clap::Command {
+        let cmd = SETTINGS.iter().fold(cmd, |c, p| c.arg(param_arg(p)));
+        DISPLAY.iter().fold(cmd, |c, p| c.arg(param_arg(p)))
+    }
+
+    fn augment_args_for_update(cmd: clap::Command) -> clap::Command {
+        Self::augment_args(cmd)
     }
 }
 
@@ -66,64 +135,17 @@ pub struct RenderOptions {
     /// Camera and settings saved from the viewer (TOML); options given here override it.
     #[arg(long)]
     pub view: Option<PathBuf>,
-    /// Image width in pixels [default: 512; the viewer follows its window].
-    #[arg(long)]
-    pub width: Option<u32>,
-    /// Image height in pixels [default: 512; the viewer follows its window].
-    #[arg(long)]
-    pub height: Option<u32>,
     /// Look through the file's camera number N (0-based, in the viewer's list) [default: the first].
     #[arg(long)]
     pub camera: Option<usize>,
-    /// Seed of the random streams [default: 0].
-    #[arg(long)]
-    pub seed: Option<u64>,
-    /// Maximum bounces, as pbrt-v4's maxdepth: 0 emitters only, 1 direct light [default: 7].
-    #[arg(long)]
-    pub max_depth: Option<u32>,
-    /// Bounce from which Russian roulette may end paths [default: 3].
-    #[arg(long)]
-    pub rr_depth: Option<u32>,
-    /// How camera rays sample the pixel area [default: random].
-    #[arg(long, value_enum)]
-    pub pixel_sampling: Option<PixelSampling>,
-    /// Strata per pixel axis for stratified and grid sampling [default: sqrt(spp), at most 16, or 4].
-    #[arg(long)]
-    pub strata: Option<u32>,
-    /// Importance sampling of BSDF directions; off draws uniform hemisphere directions [default: on].
-    #[arg(long, value_enum)]
-    pub importance: Option<Switch>,
-    /// Light sampling strategy [default: mis].
-    #[arg(long, value_enum)]
-    pub lights: Option<LightSampling>,
-    /// Estimator: path tracing, or distribution ray tracing (branching at every hit) [default: path].
-    #[arg(long, value_enum)]
-    pub integrator: Option<Integrator>,
-    /// Directions per hit for distribution ray tracing [default: 8].
-    #[arg(long)]
-    pub branching: Option<u32>,
-    /// How distribution ray tracing chooses directions [default: stratified].
-    #[arg(long, value_enum)]
-    pub directions: Option<Directions>,
-    /// Let distribution ray tracing exceed its budget of rays per sample.
-    #[arg(long)]
-    pub allow_expensive: bool,
-    /// Sequence of the sample numbers: independent, or Owen-scrambled Sobol [default: independent].
-    #[arg(long, value_enum)]
-    pub sampler: Option<SamplerKind>,
-    /// Firefly clamp on a sample's largest component (biased; off unless given).
-    #[arg(long, allow_negative_numbers = true)]
-    pub clamp: Option<f32>,
-    /// Exposure in EV for display and PNG output [default: 0].
-    #[arg(long, allow_negative_numbers = true)]
-    pub exposure: Option<f32>,
-    /// Tone curve for display and PNG output [default: linear].
-    #[arg(long, value_enum)]
-    pub tonemap: Option<Tonemap>,
+    /// Every render and display setting (see the table in the README).
+    #[command(flatten)]
+    pub params: ParamArgs,
     /// Worker threads [default: one per core].
     #[arg(long)]
     pub threads: Option<usize>,
-    /// Switch off robustness mechanisms, to see what they prevent (comma-separated).
+    /// Switch off robustness mechanisms, to see what they prevent (comma-separated; the
+    /// same as --watertight off, --offsets off, --terminator off).
     #[arg(long, value_enum, value_delimiter = ',')]
     pub without: Vec<Mechanism>,
     /// Equirectangular environment map (.hdr or .exr) lighting the scene from outside
@@ -141,76 +163,37 @@ pub struct RenderOptions {
     pub background: Option<Vec<f32>>,
 }
 
-/// The camera `--camera` picks from `scene`, else `view` (from a view file); the error is one line.
-pub fn pick_camera(
-    index: Option<usize>,
-    view: Option<Camera>,
-    scene: &crate::scene::Scene,
-) -> Result<Option<Camera>, String> {
-    match index {
-        None => Ok(view),
-        Some(i) => match scene.cameras.get(i) {
-            Some((_, c)) => Ok(Some(*c)),
-            None => {
-                let n = scene.cameras.len();
-                Err(format!("--camera {i}: {} has {n} camera{}", scene.name, if n == 1 { "" } else { "s" }))
-            }
-        },
-    }
-}
-
-/// A render setup resolved from a view file and the command line.
-pub struct Resolved {
-    /// Render settings.
-    pub settings: Settings,
-    /// Display settings.
-    pub display: Display,
-    /// The camera from the view file, if any.
-    pub camera: Option<Camera>,
-    /// What lights the scene from outside.
-    pub environment: EnvSettings,
-}
-
 impl RenderOptions {
-    /// Settings from the view file (or defaults), overridden by every option given.
-    pub fn resolve(&self, target_spp: Option<u32>) -> Result<Resolved, String> {
-        let view = match &self.view {
+    /// The view (settings, display, camera, environment) from the view file (or defaults),
+    /// overridden by every option given; `default_spp` is the sample target when neither
+    /// the command line nor the view file sets one.
+    pub fn resolve(&self, default_spp: Option<u32>) -> Result<ViewFile, String> {
+        let mut view = match &self.view {
             Some(path) => ViewFile::load(path)?,
             None => ViewFile::default(),
         };
-        let mut s = view.settings;
-        let default_strata = target_spp.map_or(4, |n| ((n as f64).sqrt().floor() as u32).clamp(1, 16));
-        s.strata = self.strata.unwrap_or(if self.view.is_some() { s.strata } else { default_strata });
-        s.width = self.width.unwrap_or(s.width);
-        s.height = self.height.unwrap_or(s.height);
-        s.seed = self.seed.unwrap_or(s.seed);
-        s.max_depth = self.max_depth.unwrap_or(s.max_depth);
-        s.rr_depth = self.rr_depth.unwrap_or(s.rr_depth);
-        s.pixel_sampling = self.pixel_sampling.unwrap_or(s.pixel_sampling);
-        s.importance_sampling = self.importance.map_or(s.importance_sampling, |i| i == Switch::On);
-        s.light_sampling = self.lights.unwrap_or(s.light_sampling);
-        s.sampler = self.sampler.unwrap_or(s.sampler);
-        s.integrator = self.integrator.unwrap_or(s.integrator);
-        s.branching = self.branching.unwrap_or(s.branching);
-        s.directions = self.directions.unwrap_or(s.directions);
-        s.allow_expensive |= self.allow_expensive;
-        s.firefly_clamp = self.clamp.or(s.firefly_clamp);
-        if !self.without.is_empty() {
-            s.robustness = self.without.iter().fold(Robustness::default(), |r, m| m.disable(r));
+        let s = &mut view.settings;
+        for &(name, value) in &self.params.settings {
+            let p = SETTINGS.iter().find(|p| p.name == name).expect("parsed from the table");
+            (p.set)(s, value);
         }
-        s.target_spp = target_spp;
+        for &(name, value) in &self.params.display {
+            let p = DISPLAY.iter().find(|p| p.name == name).expect("parsed from the table");
+            (p.set)(&mut view.display, value);
+        }
+        for m in &self.without {
+            *s = m.disable(*s);
+        }
+        s.target_spp = s.target_spp.or(default_spp);
+        if self.view.is_none() && !self.params.given("strata") {
+            // Without a view file, strata follow the sample count: about sqrt(spp) per axis.
+            s.strata = s.target_spp.map_or(4, |n| ((n as f64).sqrt().floor() as u32).clamp(1, 16));
+        }
         s.validate().map_err(|e| e.to_string())?;
         if self.threads == Some(0) {
             return Err("--threads must be at least 1".into());
         }
-        let display = Display {
-            exposure: self.exposure.unwrap_or(view.display.exposure),
-            tonemap: self.tonemap.unwrap_or(view.display.tonemap),
-        };
-        if !display.exposure.is_finite() {
-            return Err("--exposure must be finite".into());
-        }
-        let mut environment = view.environment;
+        let environment = &mut view.environment;
         if let Some(map) = &self.env {
             environment.map = Some(map.clone());
         }
@@ -223,7 +206,13 @@ impl RenderOptions {
             environment.background = glam::Vec3::new(r, g, b);
         }
         environment.validate()?;
-        Ok(Resolved { settings: s, display, camera: view.camera, environment })
+        Ok(view)
+    }
+
+    /// Whether the image size is fixed (given, or from a view file) rather than following
+    /// the viewer's window.
+    pub fn fixed_size(&self) -> bool {
+        self.params.given("width") || self.params.given("height") || self.view.is_some()
     }
 }
 
@@ -232,10 +221,8 @@ impl RenderOptions {
 pub struct RenderArgs {
     /// glTF scene (.gltf or .glb) [default: the built-in Cornell box].
     pub scene: Option<PathBuf>,
-    /// Samples per pixel [default: 64 unless --time is given].
-    #[arg(long)]
-    pub spp: Option<u32>,
-    /// Render for this many seconds instead of a sample count (--spp then caps it).
+    /// Render for this many seconds instead of a sample count (--spp then caps it; without
+    /// --time, --spp defaults to 64).
     #[arg(long, allow_negative_numbers = true)]
     pub time: Option<f64>,
     /// Output file: .png (tonemapped sRGB) or .exr (linear float).
@@ -251,11 +238,8 @@ pub struct RenderArgs {
 pub struct ViewArgs {
     /// glTF scene (.gltf or .glb) [default: the built-in Cornell box].
     pub scene: Option<PathBuf>,
-    /// Stop refining at this many samples per pixel.
-    #[arg(long)]
-    pub spp: Option<u32>,
     /// Render in the window until --spp is reached, save this PNG and an EXR beside it, and exit.
-    #[arg(long, requires = "spp")]
+    #[arg(long)]
     pub screenshot: Option<PathBuf>,
     /// Shared render options.
     #[command(flatten)]

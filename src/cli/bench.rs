@@ -4,8 +4,8 @@
 //! `robustness` measures each numerical-robustness mechanism by switching it off.
 
 use super::args::{BenchArgs, BenchKind, ConvergenceArgs, Mechanism};
-use super::render::load_scene;
-use crate::integrator::{Robustness, Settings};
+use super::render::open_scene;
+use crate::integrator::Settings;
 use crate::render::{Job, RenderSession};
 use crate::scene::{Features, Scene};
 use std::sync::Arc;
@@ -36,7 +36,7 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
         _ => args.scenes.iter().map(|p| Some(p.as_path())).collect(),
     };
     for path in scenes {
-        let scene = Arc::new(load_scene(path, &Default::default())?);
+        let scene = Arc::new(open_scene(path, &Default::default())?);
         println!(
             "{}: {} triangles, {s}x{s}, max depth 7, MIS, {} spp per run, {} runs each, {threads} threads",
             scene.name,
@@ -90,17 +90,12 @@ fn kernel_variants(scene: &Arc<Scene>, settings: Settings) -> Vec<Variant> {
 }
 
 fn robustness_variants(scene: &Arc<Scene>, settings: Settings) -> Vec<Variant> {
-    let with = |label: String, robustness: Robustness| Variant {
-        label,
-        scene: Arc::clone(scene),
-        settings: Settings { robustness, ..settings },
-    };
-    let mut variants = vec![with("all mechanisms".into(), Robustness::default())];
-    for m in [Mechanism::Watertight, Mechanism::Offsets, Mechanism::Terminator] {
-        variants.push(with(format!("without {m:?}").to_lowercase(), m.disable(Robustness::default())));
+    let with = |label: String, settings: Settings| Variant { label, scene: Arc::clone(scene), settings };
+    let mut variants = vec![with("all mechanisms".into(), settings)];
+    for m in Mechanism::ALL {
+        variants.push(with(format!("without {m:?}").to_lowercase(), m.disable(settings)));
     }
-    let none = Robustness { watertight: false, offset_origins: false, terminator: false };
-    variants.push(with("without any".into(), none));
+    variants.push(with("without any".into(), Mechanism::ALL.iter().fold(settings, |s, m| m.disable(s))));
     variants
 }
 

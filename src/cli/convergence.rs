@@ -4,7 +4,7 @@
 //! time) and summarised in a Markdown table with fitted slopes and efficiencies.
 
 use super::args::{ConvergenceArgs, StrategyName};
-use super::render::load_scene;
+use super::render::open_scene;
 use crate::film::output::{replace_file, write_image};
 use crate::film::tonemap::Display;
 use crate::integrator::{Directions, Integrator, LightSampling, PixelSampling, SamplerKind, Settings};
@@ -76,7 +76,7 @@ pub fn run(args: &ConvergenceArgs) -> Result<(), String> {
         return Err(format!("--budget {} must be a positive number of seconds", args.budget));
     }
     std::fs::create_dir_all(&args.out).map_err(|e| format!("cannot create {}: {e}", args.out.display()))?;
-    let scene = Arc::new(load_scene(args.scene.as_deref(), &Default::default())?);
+    let scene = Arc::new(open_scene(args.scene.as_deref(), &Default::default())?);
     let base = Settings {
         width: args.size,
         height: args.size,

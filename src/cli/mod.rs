@@ -1,35 +1,59 @@
-//! Command line: `lucent view` (the default), `lucent render` (headless, to PNG/EXR) and
-//! `lucent bench` (kernel, robustness and convergence measurements).
+//! Command line: parsing (`args`), `lucent render` (headless, to PNG/EXR) and `lucent
+//! bench` (kernel, robustness and convergence measurements), and what `lucent view`
+//! hands the viewer. `main.rs` dispatches.
 
 pub mod args;
-mod bench;
+pub mod bench;
 mod convergence;
 mod plot;
 pub mod render;
 
+use crate::film::output::{Format, check_writable};
+use crate::viewer::Launch;
 use clap::Parser;
 use std::process::ExitCode;
 
-/// Parses the command line and runs the subcommand; errors are one line and exit non-zero.
-pub fn main() -> ExitCode {
-    let cli = match args::Cli::try_parse() {
-        Ok(cli) => cli,
+/// The command line parsed, or the exit code after clap printed help, a version or a
+/// one-line error.
+pub fn parse() -> Result<args::Command, ExitCode> {
+    match args::Cli::try_parse() {
+        Ok(cli) => Ok(cli.command.unwrap_or(args::Command::View(args::ViewArgs::default()))),
         Err(e) if !e.use_stderr() => {
             let _ = e.print();
-            return ExitCode::SUCCESS;
+            Err(ExitCode::SUCCESS)
         }
         Err(e) => {
             let text = e.to_string();
-            let first = text.lines().next().unwrap_or("invalid arguments");
+            let first = text.lines().find(|l| !l.trim().is_empty()).unwrap_or("invalid arguments");
             eprintln!("{first} (see --help)");
-            return ExitCode::from(2);
+            Err(ExitCode::from(2))
         }
-    };
-    let result = match cli.command.unwrap_or(args::Command::View(args::ViewArgs::default())) {
-        args::Command::View(v) => crate::viewer::run(&v),
-        args::Command::Render(r) => render::run(&r),
-        args::Command::Bench(b) => bench::run(&b),
-    };
+    }
+}
+
+/// What the viewer opens for `lucent view`, checked.
+pub fn launch(args: &args::ViewArgs) -> Result<Launch, String> {
+    let view = args.options.resolve(None)?;
+    if let Some(shot) = &args.screenshot {
+        if view.settings.target_spp.is_none() {
+            return Err("--screenshot needs --spp N, the sample count at which to save it".into());
+        }
+        if check_writable(shot).map_err(|e| e.to_string())? != Format::Png {
+            return Err(format!("--screenshot {} must name a .png (the .exr is written beside it)", shot.display()));
+        }
+    }
+    Ok(Launch {
+        scene: args.scene.clone(),
+        view,
+        file_camera: args.options.camera,
+        fixed_size: args.options.fixed_size(),
+        threads: args.options.threads,
+        screenshot: args.screenshot.clone(),
+    })
+}
+
+/// The exit code for a command's result; an error is printed as one line.
+pub fn exit(result: Result<(), String>) -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {

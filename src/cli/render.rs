@@ -1,27 +1,18 @@
-//! `lucent render`: load, render progressively to a sample or time budget, write the image.
+//! `lucent render`: open, render progressively to a sample or time budget, write the image.
 
 use super::args::RenderArgs;
 use crate::film::output::{check_writable, write_image};
-use crate::loader::{builtin, gltf};
+use crate::open::{OpenOptions, open};
 use crate::render::{Job, RenderSession, Snapshot};
-use crate::scene::{
-    Scene,
-    environment::{EnvSettings, Environment},
-};
+use crate::scene::Scene;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-/// Loads the scene named on the command line, or the built-in Cornell box, lit by
-/// `environment`; prints warnings.
-pub fn load_scene(path: Option<&std::path::Path>, environment: &EnvSettings) -> Result<Scene, String> {
-    let env = (!environment.is_black()).then(|| Environment::load(environment.clone())).transpose()?;
-    let desc = match path {
-        Some(p) => gltf::load(p).map_err(|e| e.to_string())?,
-        None => builtin::cornell_box(),
-    };
-    let scene = Scene::build(desc);
-    let scene = if env.is_some() { scene.with_environment(env) } else { scene };
+/// Opens the scene named on the command line (or the built-in Cornell box) with `options`,
+/// printing its warnings.
+pub fn open_scene(path: Option<&std::path::Path>, options: &OpenOptions) -> Result<Scene, String> {
+    let scene = open(path, options, &mut |_| {})?;
     for w in &scene.warnings {
         eprintln!("warning: {w}");
     }
@@ -35,25 +26,20 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     {
         return Err(format!("--time {t} must be a positive number of seconds"));
     }
-    if args.spp == Some(0) {
-        return Err("--spp must be at least 1".into());
-    }
     check_writable(&args.out).map_err(|e| e.to_string())?;
-    let target = match (args.spp, args.time) {
-        (Some(n), _) => Some(n),
-        (None, Some(_)) => None,
-        (None, None) => Some(64),
-    };
-    let resolved = args.options.resolve(target)?;
-    let settings = resolved.settings;
+    let view = args.options.resolve(if args.time.is_none() { Some(64) } else { None })?;
+    let settings = view.settings;
+    let target = settings.target_spp;
     if settings.integrator == crate::integrator::Integrator::Distribution {
         let rays = settings.rays_per_sample_bound();
         let per_pixel = target.map_or(String::new(), |n| format!(", {:.3e} per pixel at {n} spp", rays * n as f64));
         eprintln!("distribution ray tracing: up to {rays:.3e} rays per sample{per_pixel}");
     }
-    let scene = Arc::new(load_scene(args.scene.as_deref(), &resolved.environment)?);
-    let camera = super::args::pick_camera(args.options.camera, resolved.camera, &scene)?
-        .unwrap_or_else(|| scene.default_camera(settings.width as f32 / settings.height as f32));
+    let scene = Arc::new(open_scene(args.scene.as_deref(), &OpenOptions { environment: view.environment.clone() })?);
+    let camera = match args.options.camera {
+        Some(i) => scene.file_camera(i).map_err(|e| format!("--{e}"))?,
+        None => view.camera.unwrap_or_else(|| scene.default_camera(settings.width as f32 / settings.height as f32)),
+    };
     let session = RenderSession::new(Job { scene: Arc::clone(&scene), camera, settings }, args.options.threads)
         .map_err(|e| e.to_string())?;
 
@@ -89,7 +75,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     let Some(snap) = latest else {
         return Err("the time budget ended before the first pass completed: give more --time".into());
     };
-    write_image(&args.out, snap.width, snap.height, &snap.mean, &resolved.display).map_err(|e| e.to_string())?;
+    write_image(&args.out, snap.width, snap.height, &snap.mean, &view.display).map_err(|e| e.to_string())?;
     println!("{}; wrote {}", snap.summary(&scene.name), args.out.display());
     let causes = crate::integrator::nan::report();
     if !causes.is_empty() {

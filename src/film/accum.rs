@@ -1,6 +1,7 @@
 //! Accumulation buffer: per-pixel f64 sums of radiance and its square, owned by tiles so
 //! that workers add samples without locks; NaN or infinite samples are dropped and counted.
 
+use crate::spectrum::Spectrum;
 use glam::{DVec3, UVec2, Vec3};
 
 /// Side of a square tile in pixels.
@@ -49,12 +50,12 @@ pub struct Tile {
 
 impl Tile {
     /// Adds one sample to the pixel at `local` (tile coordinates); drops it if not finite.
-    pub fn add(&mut self, local: UVec2, radiance: Vec3) {
+    pub fn add(&mut self, local: UVec2, radiance: Spectrum) {
         if !radiance.is_finite() {
             self.rejected += 1;
             return;
         }
-        let r = radiance.as_dvec3();
+        let r = radiance.to_rgb().as_dvec3();
         let px = &mut self.pixels[(local.y * self.size.x + local.x) as usize];
         px.sum += r;
         px.sum_sq += r * r;
@@ -133,10 +134,10 @@ mod tests {
     fn non_finite_samples_are_counted_not_added() {
         let mut film = Film::new(4, 4);
         let tile = &mut film.tiles[0];
-        tile.add(UVec2::new(1, 1), Vec3::splat(2.0));
-        tile.add(UVec2::new(1, 1), Vec3::new(f32::NAN, 0.0, 0.0));
-        tile.add(UVec2::new(1, 1), Vec3::splat(f32::INFINITY));
-        tile.add(UVec2::new(1, 1), Vec3::splat(4.0));
+        tile.add(UVec2::new(1, 1), Spectrum::splat(2.0));
+        tile.add(UVec2::new(1, 1), Spectrum::from_rgb(Vec3::new(f32::NAN, 0.0, 0.0)));
+        tile.add(UVec2::new(1, 1), Spectrum::splat(f32::INFINITY));
+        tile.add(UVec2::new(1, 1), Spectrum::splat(4.0));
         assert_eq!(film.rejected(), 2);
         assert_eq!(film.mean_image()[5], Vec3::splat(3.0));
         assert!((film.variance_image()[5].x - 1.0).abs() < 1e-6, "s^2 = 2, n = 2");

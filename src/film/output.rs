@@ -47,6 +47,9 @@ fn temp_path(path: &Path) -> PathBuf {
 /// Checks that `path` can be written, before spending time rendering.
 pub fn check_writable(path: &Path) -> Result<Format, OutputError> {
     let format = format_of(path)?;
+    if path.is_dir() {
+        return Err(OutputError::Write { path: path.to_owned(), reason: "it is a directory".into() });
+    }
     let tmp = temp_path(path);
     std::fs::write(&tmp, b"")
         .and_then(|_| std::fs::remove_file(&tmp))

@@ -1,11 +1,12 @@
 //! Display transform: exposure, a tone curve and the sRGB encoding; the accumulated data
 //! is never touched.
 
+use crate::params::Domain;
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
 /// Tone curves mapping scene-linear radiance to display-linear [0, 1].
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Tonemap {
     /// Clamp to [0, 1]: radiometrically faithful below 1.
@@ -61,14 +62,22 @@ static SRGB_LUT: std::sync::LazyLock<Vec<u8>> = std::sync::LazyLock::new(|| {
     (0..SRGB_LUT_SIZE).map(|i| (linear_to_srgb(i as f32 / (SRGB_LUT_SIZE - 1) as f32) * 255.0 + 0.5) as u8).collect()
 });
 
-/// How linear radiance is shown: exposure in EV, then a tone curve, then sRGB.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
-pub struct Display {
-    /// Exposure in stops (radiance is scaled by 2^exposure).
-    pub exposure: f32,
-    /// Tone curve.
-    pub tonemap: Tonemap,
+crate::choice_enum!(Tonemap {
+    Linear = "linear": "clamp to [0, 1]",
+    Aces = "aces": "Narkowicz's fit of the ACES filmic curve",
+    PbrNeutral = "pbr-neutral": "Khronos PBR Neutral",
+});
+
+crate::params! {
+    /// How linear radiance is shown: exposure in EV, then a tone curve, then sRGB.
+    #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+    #[serde(default)]
+    pub struct Display, table DISPLAY {
+        /// Exposure in stops for display and PNG output (radiance is scaled by 2^exposure).
+        exposure: f32 = 0.0, ["exposure", "exposure (EV)", Display, Domain::Float { min: -20.0, max: 20.0, optional: false }, |_| true],
+        /// Tone curve for display and PNG output.
+        tonemap: Tonemap = Tonemap::Linear, ["tonemap", "tone curve", Display, Domain::Choice(Tonemap::CHOICES), |_| true],
+    }
 }
 
 impl Display {

@@ -5,25 +5,26 @@
 //! to 10, deterministic and biased). Light sampling at each hit works as in the path
 //! tracer, with the direction scheme's density in the MIS weights.
 
+use super::direct::sample_direct;
+use super::emission::{emitted, escaped};
+use super::kernel::PathOutput;
 use super::media::{Media, transmittance};
-use super::path::{PathOutput, Vertex, emitted, escaped, sample_light};
+use super::mis::Scattered;
+use super::scatter::Sampling;
 use super::settings::{Directions, LightSampling, Settings};
-use crate::bsdf::Bsdf;
+use super::vertex::Vertex;
+use crate::bsdf::{Bsdf, TransportMode};
 use crate::math::sampler::Sampler;
 use crate::scene::{Scene, geometry::Ray};
+use crate::spectrum::Spectrum;
 use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_PI_2, TAU};
 
 /// Radiance along a camera ray by distribution ray tracing, and the rays it traced.
-pub(super) fn radiance<const E: bool, const P: bool, const T: bool, const G: bool>(
-    scene: &Scene,
-    settings: &Settings,
-    ray: Ray,
-    sampler: &mut Sampler,
-) -> PathOutput {
-    let mut rays = 0;
-    let radiance = trace::<E, P, T, G>(scene, settings, ray, Media::default(), 0, None, sampler, &mut rays);
-    PathOutput { radiance, rays }
+pub fn radiance(scene: &Scene, settings: &Settings, ray: Ray, sampler: &mut Sampler) -> PathOutput {
+    let mut out = PathOutput::default();
+    let radiance = trace(scene, settings, ray, Media::default(), 0, None, sampler, &mut out);
+    PathOutput { radiance, ..out }
 }
 
 /// Theta and phi cell counts of the grid for `n` directions: n = m x k with m about
@@ -41,48 +42,50 @@ fn strata_shape(n: u32) -> (u32, u32) {
     (n / a, a)
 }
 
+/// Radiance arriving along `ray`, which was sampled as `last`, counting rays into `out`.
 #[allow(clippy::too_many_arguments)]
-fn trace<const E: bool, const P: bool, const T: bool, const G: bool>(
+fn trace(
     scene: &Scene,
     settings: &Settings,
     ray: Ray,
     media: Media,
     depth: u32,
-    prev_pdf: Option<f32>,
+    last: Option<Scattered>,
     sampler: &mut Sampler,
-    rays: &mut u32,
-) -> Vec3 {
-    *rays += 1;
-    let Some(hit) = scene.intersect(&ray, settings.robustness.watertight, depth == 0) else {
-        return if P { escaped(scene, settings, ray.d.normalize(), prev_pdf, &media) } else { Vec3::ZERO };
+    out: &mut PathOutput,
+) -> Spectrum {
+    out.rays += 1;
+    let Some(hit) = scene.intersect(&ray, settings.watertight, depth == 0) else {
+        return escaped(scene, settings, ray.d, last, &media);
     };
     let absorbed = if scene.features.volumes {
         transmittance(media.sigma_a(&scene.materials), hit.t * ray.d.length())
     } else {
-        Vec3::ONE
+        Spectrum::ONE
     };
     let surface = scene.surface(&hit);
-    let mut radiance = Vec3::ZERO;
-    if E && surface.ng.dot(ray.d) < 0.0 {
-        radiance += emitted::<T>(scene, settings, &surface, -ray.d, hit.t, prev_pdf);
+    let mut radiance = Spectrum::ZERO;
+    if surface.ng.dot(ray.d) < 0.0 {
+        radiance += emitted(scene, settings, &surface, -ray.d, hit.t, last);
     }
     if depth == settings.max_depth {
         return radiance * absorbed;
     }
-    let vertex = Vertex::new::<T, G>(scene, settings, surface, ray.d, media);
-    if (E || P) && settings.light_sampling != LightSampling::Off {
-        let (l, traced) = sample_light::<E, P, T>(scene, settings, &vertex, sampler);
-        radiance += l;
-        *rays += traced as u32;
+    let vertex = Vertex::new(scene, settings, surface, ray.d, media);
+    if settings.light_sampling != LightSampling::Off && !scene.light_sampler.is_empty() {
+        let direct = sample_direct(scene, settings, &vertex, sampler);
+        radiance += direct.radiance;
+        out.rays += direct.shadow_ray as u32;
+        out.shadow_rays += direct.shadow_ray as u32;
     }
     let n = settings.branching;
-    let mut follow = |wi_local: Vec3, weight: Vec3, pdf: f32, sampler: &mut Sampler| {
-        let Some((d, o, crosses)) = vertex.leave(wi_local) else { return Vec3::ZERO };
+    let mut follow = |wi_local: Vec3, weight: Spectrum, scattered: Scattered, sampler: &mut Sampler| {
+        let Some((d, o, crosses)) = vertex.leave(wi_local) else { return Spectrum::ZERO };
         let next = Ray { o, d, tmax: f32::INFINITY };
         let media = vertex.media_after(scene, crosses);
-        weight * trace::<E, P, T, G>(scene, settings, next, media, depth + 1, Some(pdf), sampler, rays)
+        weight * trace(scene, settings, next, media, depth + 1, Some(scattered), sampler, out)
     };
-    let (bsdf, wo, strategy) = (&vertex.bsdf, vertex.wo, vertex.strategy);
+    let sampling = Sampling::new(settings.importance_sampling);
     match settings.directions {
         Directions::Stratified => {
             let (sx, sy) = strata_shape(n);
@@ -90,38 +93,41 @@ fn trace<const E: bool, const P: bool, const T: bool, const G: bool>(
                 let cell = Vec2::new((s % sx) as f32, (s / sx) as f32);
                 let u_lobe = sampler.next_1d();
                 let u = (cell + sampler.next_2d()) / Vec2::new(sx as f32, sy as f32);
-                if let Some(bs) = bsdf.sample(wo, u_lobe, u.min(Vec2::splat(1.0 - f32::EPSILON)), strategy) {
-                    radiance += follow(bs.wi, bs.weight / n as f32, bs.pdf, sampler);
+                let u = u.min(Vec2::splat(1.0 - f32::EPSILON));
+                if let Some(bs) = sampling.sample(&vertex.bsdf, vertex.wo, u_lobe, u) {
+                    let scattered = Scattered { pdf: bs.pdf, specular: bs.is_specular() };
+                    radiance += follow(bs.wi, bs.weight / n as f32, scattered, sampler);
                 }
             }
         }
-        Directions::Grid => radiance += grid(bsdf, wo, n, sampler, &mut follow),
+        Directions::Grid => radiance += grid(&vertex.bsdf, vertex.wo, n, sampler, &mut follow),
     }
     radiance * absorbed
 }
 
 /// The textbook's eq. 10 at cell midpoints: sum of f cos L sin(theta) dtheta dphi. Each
 /// direction's weight w is reported to MIS as the density 1 / (n w) that a Monte Carlo
-/// estimate with the same weight would have.
+/// estimate with the same weight would have. The grid sees only the non-delta lobes.
 fn grid(
     bsdf: &Bsdf,
     wo: Vec3,
     n: u32,
     sampler: &mut Sampler,
-    follow: &mut impl FnMut(Vec3, Vec3, f32, &mut Sampler) -> Vec3,
-) -> Vec3 {
+    follow: &mut impl FnMut(Vec3, Spectrum, Scattered, &mut Sampler) -> Spectrum,
+) -> Spectrum {
     let (m, k) = grid_shape(n);
     let (d_theta, d_phi) = (FRAC_PI_2 / m as f32, TAU / k as f32);
-    let mut sum = Vec3::ZERO;
+    let mut sum = Spectrum::ZERO;
     for i in 0..m {
         let theta = (i as f32 + 0.5) * d_theta;
         let w = theta.sin() * d_theta * d_phi;
         for j in 0..k {
             let phi = (j as f32 + 0.5) * d_phi;
             let wi = Vec3::new(theta.sin() * phi.cos(), theta.sin() * phi.sin(), theta.cos());
-            let f = bsdf.eval_cos(wo, wi);
-            if f != Vec3::ZERO {
-                sum += follow(wi, f * w, 1.0 / (n as f32 * w), sampler);
+            let f = bsdf.eval(wo, wi, TransportMode::Radiance);
+            if !f.is_black() {
+                let scattered = Scattered { pdf: 1.0 / (n as f32 * w), specular: false };
+                sum += follow(wi, f * w, scattered, sampler);
             }
         }
     }
@@ -149,10 +155,10 @@ mod tests {
     fn the_grid_integrates_a_lambertian_cosine_as_the_midpoint_rule_predicts() {
         // sum over M theta cells of sin(2 theta_i) dtheta = x / sin(x), x = pi / (2M): the
         // grid's bias for a white Lambertian surface under uniform light, exactly.
-        let lambert = Bsdf::Lambert(crate::bsdf::Lambert { albedo: Vec3::ONE });
+        let lambert = Bsdf::Lambert(crate::bsdf::Lambert { albedo: Spectrum::ONE });
         let mut sampler = Sampler::new(glam::UVec2::ZERO, 0, 0);
         for n in [4u32, 16, 64, 256] {
-            let total = grid(&lambert, Vec3::Z, n, &mut sampler, &mut |_, w, _, _| w);
+            let total = grid(&lambert, Vec3::Z, n, &mut sampler, &mut |_, w, _, _| w).to_rgb();
             let x = FRAC_PI_2 / grid_shape(n).0 as f32;
             assert!((total.x - x / x.sin()).abs() < 1e-5, "{n}: {} vs {}", total.x, x / x.sin());
         }

@@ -4,7 +4,7 @@
 //! so a liquid inside a glass sees the glass (not air) around it.
 
 use crate::scene::material::Material;
-use glam::Vec3;
+use crate::spectrum::Spectrum;
 
 /// Deepest nesting tracked; deeper entries are ignored (treated as not entered).
 const DEPTH: usize = 8;
@@ -45,20 +45,21 @@ impl Media {
     }
 
     /// Absorption coefficient of the innermost volume (zero outside every volume).
-    pub fn sigma_a(&self, materials: &[Material]) -> Vec3 {
-        self.entries[..self.len].last().and_then(|&m| materials[m as usize].volume).unwrap_or(Vec3::ZERO)
+    pub fn sigma_a(&self, materials: &[Material]) -> Spectrum {
+        let sigma = self.entries[..self.len].last().and_then(|&m| materials[m as usize].volume);
+        sigma.map_or(Spectrum::ZERO, Spectrum::from_rgb)
     }
 }
 
 /// Beer-Lambert transmittance exp(-sigma d), exactly 1 where sigma is 0 (even for d = inf).
-pub fn transmittance(sigma: Vec3, distance: f32) -> Vec3 {
-    let channel = |s: f32| if s > 0.0 { (-s * distance).exp() } else { 1.0 };
-    Vec3::new(channel(sigma.x), channel(sigma.y), channel(sigma.z))
+pub fn transmittance(sigma: Spectrum, distance: f32) -> Spectrum {
+    sigma.map(|s| if s > 0.0 { (-s * distance).exp() } else { 1.0 })
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use glam::Vec3;
 
     #[test]
     fn nested_volumes_see_their_enclosing_index() {
@@ -71,14 +72,17 @@ mod tests {
         m.cross(0, true);
         assert_eq!(m.outside_ior(&materials, 1, true), 1.5);
         m.cross(1, true);
-        assert_eq!(m.sigma_a(&materials), Vec3::splat(0.5));
+        assert_eq!(m.sigma_a(&materials), Spectrum::splat(0.5));
         assert_eq!(m.outside_ior(&materials, 1, false), 1.5);
         m.cross(1, false);
         assert_eq!(m.outside_ior(&materials, 0, false), 1.0);
         m.cross(0, false);
-        assert_eq!(m.sigma_a(&materials), Vec3::ZERO);
+        assert_eq!(m.sigma_a(&materials), Spectrum::ZERO);
         // Leaving a volume never entered (a camera inside glass) sees air outside.
         assert_eq!(m.outside_ior(&materials, 0, false), 1.0);
-        assert_eq!(transmittance(Vec3::new(0.0, 1.0, 2.0), f32::INFINITY), Vec3::new(1.0, 0.0, 0.0));
+        assert_eq!(
+            transmittance(Spectrum::from_rgb(Vec3::new(0.0, 1.0, 2.0)), f32::INFINITY),
+            Spectrum::from_rgb(Vec3::new(1.0, 0.0, 0.0))
+        );
     }
 }

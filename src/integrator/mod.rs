@@ -1,11 +1,22 @@
-//! Estimators of the rendering equation: render settings, the path tracer and the
-//! distribution ray tracer.
+//! Estimators of the rendering equation. The path tracer (`path`) and the distribution
+//! ray tracer (`drt`) are leaves built from shared parts: the pixel sample (`kernel`), the
+//! surface vertex (`vertex`), direction sampling (`scatter`), next-event estimation
+//! (`direct`), light found by BSDF rays (`emission`), MIS weights (`mis`) and the volumes a
+//! path is in (`media`).
 
+mod direct;
 mod drt;
+mod emission;
+pub mod kernel;
 pub mod media;
+mod mis;
 pub mod nan;
-pub mod path;
+mod path;
+pub mod scatter;
 pub mod settings;
+mod vertex;
 
-pub use path::{PathOutput, SampleFn, kernel};
-pub use settings::{Directions, Integrator, LightSampling, PixelSampling, Robustness, SamplerKind, Settings};
+pub use drt::grid_shape;
+pub use kernel::{PathOutput, sample_pixel};
+pub use scatter::Sampling;
+pub use settings::{Directions, Integrator, LightSampling, PixelSampling, SamplerKind, Settings};

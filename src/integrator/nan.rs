@@ -1,7 +1,7 @@
 //! Counters of non-finite values per cause, so that a NaN regression names its source.
 //! Compiled in debug builds and with the `nan-causes` feature; free otherwise.
 
-use glam::Vec3;
+use crate::spectrum::Spectrum;
 
 /// Where in the path a non-finite value appeared.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -30,7 +30,7 @@ static COUNTS: [std::sync::atomic::AtomicU64; 4] = [const { std::sync::atomic::A
 
 /// Counts `v` under `cause` if any component is NaN or infinite (no-op unless `enabled()`).
 #[inline(always)]
-pub fn check(cause: NanCause, v: Vec3) {
+pub fn check(cause: NanCause, v: Spectrum) {
     #[cfg(any(debug_assertions, feature = "nan-causes"))]
     if !v.is_finite() {
         COUNTS[cause as usize].fetch_add(1, std::sync::atomic::Ordering::Relaxed);

@@ -1,11 +1,14 @@
-//! Render settings: a plain, comparable struct; any change restarts accumulation.
+//! Render settings: a plain, comparable struct declared with its parameter table (name,
+//! help, default, range), which the command line, the viewer and view files all read. Any
+//! change restarts accumulation.
 
 pub use crate::math::sampler::SamplerKind;
+use crate::params::{Domain, Param};
 use serde::{Deserialize, Serialize};
 use std::fmt;
 
 /// How camera rays sample the pixel's area.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum PixelSampling {
     /// Independent uniform positions in the pixel (Monte Carlo).
@@ -19,22 +22,34 @@ pub enum PixelSampling {
     Grid,
 }
 
+crate::choice_enum!(PixelSampling {
+    Random = "random": "independent uniform positions in the pixel",
+    Stratified = "stratified": "jittered strata, one sample per stratum each round",
+    Grid = "grid": "the textbook's uniform sub-pixel grid at cell midpoints (biased)",
+});
+
 /// How light sources are found (the textbook's "explicit light sampling", section 10.9).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum LightSampling {
     /// Only BSDF-sampled rays that happen to hit an emitter find light.
     Off,
-    /// A shadow ray to one sampled light per hit; emitters hit by BSDF rays after the
-    /// camera ray add nothing, so nothing is counted twice.
+    /// A shadow ray to one sampled light per non-delta vertex; emitters that BSDF rays hit
+    /// add nothing unless the ray came from a delta lobe, so nothing is counted twice.
     Explicit,
     /// Both strategies, combined by multiple importance sampling (power heuristic, Veach 1997).
     #[default]
     Mis,
 }
 
+crate::choice_enum!(LightSampling {
+    Off = "off": "only BSDF-sampled rays find light",
+    Explicit = "explicit": "a shadow ray per vertex, no double counting",
+    Mis = "mis": "both, combined by MIS (power heuristic)",
+});
+
 /// Which estimator of the rendering equation renders the image.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Integrator {
     /// Path tracing (section 10.7): one direction per bounce, Russian roulette.
@@ -45,8 +60,13 @@ pub enum Integrator {
     Distribution,
 }
 
+crate::choice_enum!(Integrator {
+    Path = "path": "path tracing, one direction per bounce",
+    Distribution = "distribution": "distribution ray tracing, branching at every hit",
+});
+
 /// How distribution ray tracing chooses its hemisphere directions at a hit.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Directions {
     /// Stratified Monte Carlo: one BSDF sample (or uniform sample, with importance
@@ -58,91 +78,77 @@ pub enum Directions {
     Grid,
 }
 
+crate::choice_enum!(Directions {
+    Stratified = "stratified": "stratified Monte Carlo, one sample per stratum (unbiased)",
+    Grid = "grid": "the textbook's theta/phi grid at cell midpoints (biased)",
+});
+
+crate::choice_enum!(SamplerKind {
+    Independent = "independent": "independent uniform numbers (PCG32)",
+    Sobol = "sobol": "Owen-scrambled Sobol points, stratified per pixel and draw",
+});
+
 /// Rays one distribution-ray-traced sample may trace before it needs confirmation.
 pub const DRT_RAY_BUDGET: f64 = 2e5;
 
-/// Numerical-robustness mechanisms, all on by default. Switching one off shows what it
-/// prevents (light leaks, shadow acne, a faceted shadow terminator) and, with
-/// `lucent bench robustness`, what it costs.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(default)]
-pub struct Robustness {
-    /// Watertight ray/triangle test (off: obvhs's Moller-Trumbore test, which leaks at edges).
-    pub watertight: bool,
-    /// Ray origins offset by the hit point's floating-point error bound (off: rays leave
-    /// from the computed hit point itself).
-    pub offset_origins: bool,
-    /// Hanika's shadow-terminator offset for smooth-shaded meshes (off: rays leave the facet).
-    pub terminator: bool,
+/// Largest image side in pixels.
+pub const MAX_SIDE: u64 = 16384;
+
+const fn int(min: u64, max: u64) -> Domain {
+    Domain::Int { min, max, optional: false }
 }
 
-impl Default for Robustness {
-    fn default() -> Self {
-        Self { watertight: true, offset_origins: true, terminator: true }
-    }
+fn always(_: &Settings) -> bool {
+    true
 }
 
-/// Everything that determines the image, besides the scene and the camera.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
-pub struct Settings {
-    /// Image width in pixels.
-    pub width: u32,
-    /// Image height in pixels.
-    pub height: u32,
-    /// Seed of every random stream.
-    pub seed: u64,
-    /// Maximum number of bounces (pbrt-v4's maxdepth: 0 = emitters seen directly, 1 = direct light).
-    pub max_depth: u32,
-    /// Bounce count from which Russian roulette may end a path.
-    pub rr_depth: u32,
-    /// Pixel-area sampling mode.
-    pub pixel_sampling: PixelSampling,
-    /// Strata (and grid cells) per pixel axis for `Stratified` and `Grid`.
-    pub strata: u32,
-    /// Draw directions in proportion to the BSDF (on) or uniformly over the hemisphere (off).
-    pub importance_sampling: bool,
-    /// Light sampling strategy.
-    pub light_sampling: LightSampling,
-    /// Scale down samples whose largest component exceeds this (biased; off by default).
-    pub firefly_clamp: Option<f32>,
-    /// Stop accumulating at this many samples per pixel (None: keep refining).
-    pub target_spp: Option<u32>,
-    /// Numerical-robustness mechanisms.
-    pub robustness: Robustness,
-    /// Sequence the pixel samples draw from.
-    pub sampler: SamplerKind,
-    /// The estimator.
-    pub integrator: Integrator,
-    /// Directions per hit for distribution ray tracing.
-    pub branching: u32,
-    /// How distribution ray tracing chooses its directions.
-    pub directions: Directions,
-    /// Lets distribution ray tracing exceed `DRT_RAY_BUDGET` rays per sample.
-    pub allow_expensive: bool,
+fn distribution(s: &Settings) -> bool {
+    s.integrator == Integrator::Distribution
 }
 
-impl Default for Settings {
-    fn default() -> Self {
-        Self {
-            width: 512,
-            height: 512,
-            seed: 0,
-            max_depth: 7,
-            rr_depth: 3,
-            pixel_sampling: PixelSampling::default(),
-            strata: 4,
-            importance_sampling: true,
-            light_sampling: LightSampling::default(),
-            firefly_clamp: None,
-            target_spp: None,
-            robustness: Robustness::default(),
-            sampler: SamplerKind::default(),
-            integrator: Integrator::default(),
-            branching: 8,
-            directions: Directions::default(),
-            allow_expensive: false,
-        }
+crate::params! {
+    /// Everything that determines the image, besides the scene and the camera.
+    #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+    #[serde(default)]
+    pub struct Settings, table SETTINGS {
+        /// Image width in pixels (the viewer follows its window unless the size is fixed).
+        width: u32 = 512, ["width", "width", Image, int(1, MAX_SIDE), always],
+        /// Image height in pixels (the viewer follows its window unless the size is fixed).
+        height: u32 = 512, ["height", "height", Image, int(1, MAX_SIDE), always],
+        /// The estimator: path tracing, or distribution ray tracing (branching at every hit).
+        integrator: Integrator = Integrator::Path, ["integrator", "integrator", Estimator, Domain::Choice(Integrator::CHOICES), always],
+        /// Directions per hit for distribution ray tracing.
+        branching: u32 = 8, ["branching", "directions per hit", Estimator, int(1, 4096), distribution],
+        /// How distribution ray tracing chooses its directions.
+        directions: Directions = Directions::Stratified, ["directions", "direction scheme", Estimator, Domain::Choice(Directions::CHOICES), distribution],
+        /// Let distribution ray tracing exceed its budget of rays per sample.
+        allow_expensive: bool = false, ["allow-expensive", "render anyway (over the ray budget)", Estimator, Domain::Switch, |s| distribution(s) && s.rays_per_sample_bound() > DRT_RAY_BUDGET],
+        /// Draw directions in proportion to the BSDF (on) or uniformly over the hemisphere (off).
+        importance_sampling: bool = true, ["importance", "importance sampling", Estimator, Domain::Switch, always],
+        /// Light sampling strategy: none, explicit (no double counting), or MIS.
+        light_sampling: LightSampling = LightSampling::Mis, ["lights", "light sampling", Estimator, Domain::Choice(LightSampling::CHOICES), always],
+        /// Sequence of the sample numbers: independent, or Owen-scrambled Sobol.
+        sampler: SamplerKind = SamplerKind::Independent, ["sampler", "sampler", Estimator, Domain::Choice(SamplerKind::CHOICES), always],
+        /// Maximum bounces, as pbrt-v4's maxdepth: 0 emitters only, 1 direct light.
+        max_depth: u32 = 7, ["max-depth", "max depth", Estimator, int(0, u32::MAX as u64), always],
+        /// Bounce from which Russian roulette may end paths.
+        rr_depth: u32 = 3, ["rr-depth", "roulette from", Estimator, int(0, u32::MAX as u64), always],
+        /// How camera rays sample the pixel area.
+        pixel_sampling: PixelSampling = PixelSampling::Random, ["pixel-sampling", "pixel sampling", Estimator, Domain::Choice(PixelSampling::CHOICES), always],
+        /// Strata (and grid cells) per pixel axis for stratified and grid pixel sampling.
+        strata: u32 = 4, ["strata", "strata per axis", Estimator, int(1, 64), |s| s.pixel_sampling != PixelSampling::Random],
+        /// Firefly clamp on a sample's largest component (biased; off unless given).
+        firefly_clamp: Option<f32> = None, ["clamp", "firefly clamp (biased)", Estimator, Domain::Float { min: 1e-6, max: f32::MAX, optional: true }, always],
+        /// Stop accumulating at this many samples per pixel (off: keep refining).
+        target_spp: Option<u32> = None, ["spp", "stop at spp", Estimator, Domain::Int { min: 1, max: u32::MAX as u64, optional: true }, always],
+        /// Seed of every random stream.
+        seed: u64 = 0, ["seed", "seed", Estimator, int(0, u64::MAX), always],
+        /// Watertight ray/triangle test (off: obvhs's Moller-Trumbore test, which leaks at edges).
+        watertight: bool = true, ["watertight", "watertight triangle test (off: leaks at edges)", Robustness, Domain::Switch, always],
+        /// Ray origins offset by the hit point's floating-point error bound (off: shadow acne).
+        offset_origins: bool = true, ["offsets", "error-bound ray offsets (off: shadow acne)", Robustness, Domain::Switch, always],
+        /// Hanika's shadow-terminator offset for smooth-shaded meshes (off: a faceted terminator).
+        terminator: bool = true, ["terminator", "shadow-terminator offset (off: faceted terminator)", Robustness, Domain::Switch, always],
     }
 }
 
@@ -159,6 +165,11 @@ impl fmt::Display for InvalidSettings {
 impl std::error::Error for InvalidSettings {}
 
 impl Settings {
+    /// The parameter table.
+    pub fn table() -> &'static [Param<Settings>] {
+        SETTINGS
+    }
+
     /// Most rays one sample of distribution ray tracing traces: branching^k rays reach
     /// depth k = 0..=max_depth, plus one shadow ray per hit below max_depth when lights
     /// are sampled. Reached exactly in a closed scene. Infinite for path tracing (unbounded).
@@ -173,33 +184,16 @@ impl Settings {
         hits_below + n.powi(depth) + shadow
     }
 
-    /// Checks ranges: a non-empty image of at most 16384 pixels a side, at least one
-    /// stratum, a positive finite clamp.
+    /// Checks every parameter against its table entry, and the distribution ray tracer's
+    /// ray budget.
     pub fn validate(&self) -> Result<(), InvalidSettings> {
-        let bad = |m: String| Err(InvalidSettings(m));
-        if !(1..=16384).contains(&self.width) || !(1..=16384).contains(&self.height) {
-            return bad(format!("image size {}x{} is outside 1..=16384", self.width, self.height));
-        }
-        if !(1..=64).contains(&self.strata) {
-            return bad(format!("strata {} is outside 1..=64", self.strata));
-        }
-        if let Some(c) = self.firefly_clamp
-            && !(c > 0.0 && c.is_finite())
-        {
-            return bad(format!("firefly clamp {c} must be positive and finite"));
-        }
-        if !(1..=4096).contains(&self.branching) {
-            return bad(format!("branching {} is outside 1..=4096", self.branching));
-        }
+        crate::params::validate(SETTINGS, self).map_err(InvalidSettings)?;
         let rays = self.rays_per_sample_bound();
         if self.integrator == Integrator::Distribution && rays > DRT_RAY_BUDGET && !self.allow_expensive {
-            return bad(format!(
-                "distribution ray tracing with branching {} and depth {} traces up to {rays:.3e} rays per sample, over the budget of {DRT_RAY_BUDGET:.0e}: allow it explicitly (--allow-expensive)",
+            return Err(InvalidSettings(format!(
+                "distribution ray tracing with branching {} and depth {} traces up to {rays:.3e} rays per sample, over the budget of {DRT_RAY_BUDGET:.0e}: allow it explicitly (--allow-expensive on)",
                 self.branching, self.max_depth
-            ));
-        }
-        if self.target_spp == Some(0) {
-            return bad("target spp must be at least 1".into());
+            )));
         }
         Ok(())
     }

@@ -3,7 +3,7 @@
 //! after every pass, and restarts at once when a new job bumps the generation.
 
 use crate::film::{Film, Tile};
-use crate::integrator::{SampleFn, Settings, kernel, settings::InvalidSettings};
+use crate::integrator::{Settings, sample_pixel, settings::InvalidSettings};
 use crate::scene::{Scene, camera::Camera, camera::RayGenerator};
 use glam::{UVec2, Vec3};
 use rayon::prelude::*;
@@ -254,7 +254,6 @@ struct Active {
     job: Job,
     generation: u64,
     film: Film,
-    kernel: SampleFn,
     rays: RayGenerator,
     spp: u32,
     pass_spp: u32,
@@ -268,7 +267,6 @@ impl Active {
         let s = job.settings;
         Self {
             film: Film::new(s.width, s.height),
-            kernel: kernel(job.scene.features),
             rays: job.camera.rays(s.width, s.height),
             job,
             generation,
@@ -332,7 +330,6 @@ struct Pass<'a> {
     scene: &'a Scene,
     settings: &'a Settings,
     rays: &'a RayGenerator,
-    kernel: SampleFn,
     first: u64,
     count: u32,
     current: &'a AtomicU64,
@@ -355,7 +352,7 @@ impl Pass<'_> {
                 let local = UVec2::new(lx, ly);
                 let pixel = tile.origin + local;
                 for i in 0..self.count as u64 {
-                    let out = (self.kernel)(self.scene, self.settings, self.rays, pixel, self.first + i);
+                    let out = sample_pixel(self.scene, self.settings, self.rays, pixel, self.first + i);
                     tile.add(local, out.radiance);
                     traced += out.rays as u64;
                 }
@@ -373,7 +370,6 @@ fn run_pass(shared: &Shared, pool: &rayon::ThreadPool, a: &mut Active) -> bool {
         scene: &a.job.scene,
         settings: &a.job.settings,
         rays: &a.rays,
-        kernel: a.kernel,
         first: a.spp as u64,
         count: a.pass_spp.min(remaining),
         current: &shared.generation,

@@ -3,6 +3,7 @@
 //! a 2D piecewise-constant density over the texels, in proportion to radiance x sin(theta).
 
 use crate::math::{distribution::Distribution2D, luminance, warp};
+use crate::spectrum::Spectrum;
 use glam::{Vec2, Vec3};
 use serde::{Deserialize, Serialize};
 use std::f32::consts::{PI, TAU};
@@ -179,17 +180,17 @@ impl Environment {
     }
 
     /// Radiance arriving from unit world direction `d` (travelling along -d).
-    pub fn radiance(&self, d: Vec3) -> Vec3 {
+    pub fn radiance(&self, d: Vec3) -> Spectrum {
         let scale = self.settings.intensity;
-        match &self.map {
+        Spectrum::from_illuminant_rgb(match &self.map {
             Some(map) => map.lookup(to_uv(self.to_map(d))) * scale,
             None => self.settings.background * scale,
-        }
+        })
     }
 
     /// A direction drawn in proportion to the radiance: (world direction, radiance, solid
     /// angle density); None where the density vanishes (the poles).
-    pub fn sample(&self, u: Vec2) -> Option<(Vec3, Vec3, f32)> {
+    pub fn sample(&self, u: Vec2) -> Option<(Vec3, Spectrum, f32)> {
         let Some(map) = &self.map else {
             let d = warp::uniform_sphere(u);
             return Some((d, self.radiance(d), warp::UNIFORM_SPHERE_PDF));
@@ -200,7 +201,8 @@ impl Environment {
             return None;
         }
         let d = self.to_world(local);
-        Some((d, map.lookup(uv) * self.settings.intensity, pdf_uv / (2.0 * PI * PI * sin_theta)))
+        let radiance = Spectrum::from_illuminant_rgb(map.lookup(uv) * self.settings.intensity);
+        Some((d, radiance, pdf_uv / (2.0 * PI * PI * sin_theta)))
     }
 
     /// Solid-angle density with which `sample` returns unit world direction `d`.
@@ -252,7 +254,7 @@ mod tests {
             for j in 0..32 {
                 let uv = Vec2::new((i as f32 + 0.5) / 64.0, (j as f32 + 0.5) / 32.0);
                 let d = from_uv(uv).0;
-                if env.radiance(d) != Vec3::ZERO {
+                if !env.radiance(d).is_black() {
                     assert!(env.pdf(d) > 0.0, "{uv}");
                 }
             }

@@ -1,7 +1,12 @@
 //! Lights: KHR_lights_punctual lights, and a sampler that picks among all lights
-//! (emissive triangles, punctual lights, the environment) in proportion to their power.
+//! (emissive triangles, punctual lights, the environment) in proportion to their power,
+//! and the interface the integrators sample lights through: `Scene::sample_li` beside its
+//! density `Scene::pdf_li` (pbrt-v4's `Light::SampleLi` and `PDF_Li`). Shadow rays are
+//! the integrator's: a sample says where its shadow ray ends.
 
-use crate::math::{distribution::AliasTable, luminance};
+use super::{Scene, Surface, geometry::Hit};
+use crate::math::{distribution::AliasTable, luminance, warp};
+use crate::spectrum::Spectrum;
 use glam::{Vec2, Vec3};
 
 /// The kind of a KHR_lights_punctual light.
@@ -38,14 +43,15 @@ pub struct PunctualLight {
 impl PunctualLight {
     /// Radiant intensity (or irradiance, for directional) towards unit direction `w`
     /// leaving the light. Spot falloff follows the KHR_lights_punctual reference formula.
-    pub fn intensity_towards(&self, w: Vec3) -> Vec3 {
+    pub fn intensity_towards(&self, w: Vec3) -> Spectrum {
+        let intensity = Spectrum::from_illuminant_rgb(self.intensity);
         match self.kind {
             PunctualKind::Spot { cos_inner, cos_outer } => {
                 let scale = 1.0 / (cos_inner - cos_outer).max(1e-4);
                 let a = ((w.dot(self.direction) - cos_outer) * scale).clamp(0.0, 1.0);
-                self.intensity * a * a
+                intensity * a * a
             }
-            _ => self.intensity,
+            _ => intensity,
         }
     }
 
@@ -139,6 +145,131 @@ impl LightSampler {
     }
 }
 
+/// Where a shadow ray towards a light sample ends.
+#[derive(Clone, Copy, Debug)]
+pub enum LightTarget {
+    /// A point on an emitting surface, known to within `error`, with front normal `n`: the
+    /// ray stops short of it by that bound.
+    Surface {
+        /// The point.
+        p: Vec3,
+        /// Absolute error bound on `p`, per coordinate.
+        error: Vec3,
+        /// The emitter's geometric normal.
+        n: Vec3,
+    },
+    /// A point light's position.
+    Point(Vec3),
+    /// Infinitely far along the sample's direction (directional lights, the environment).
+    Infinite,
+}
+
+/// A light sample for a reference point (pbrt-v4's `LightLiSample`).
+#[derive(Clone, Copy, Debug)]
+pub struct LightSample {
+    /// Unit world direction from the reference point towards the light.
+    pub wi: Vec3,
+    /// Radiance arriving along `wi` (for delta lights, intensity / d^2 or irradiance).
+    pub radiance: Spectrum,
+    /// Density of `wi` in solid angle, including the probability of choosing the light;
+    /// for delta lights only that probability.
+    pub pdf: f32,
+    /// Where the shadow ray ends.
+    pub target: LightTarget,
+    /// The light is a delta (point, spot, directional): BSDF sampling cannot find it.
+    pub is_delta: bool,
+}
+
+/// Light a BSDF-sampled ray found, for `Scene::pdf_li`.
+#[derive(Clone, Copy, Debug)]
+pub enum LightHit<'a> {
+    /// An emitting surface reached at `distance` (in units of the ray's direction) by a ray
+    /// travelling along `-wo`.
+    Emitter {
+        /// The surface point.
+        surface: &'a Surface,
+        /// Direction back along the ray.
+        wo: Vec3,
+        /// Distance travelled from the last scattering vertex.
+        distance: f32,
+    },
+    /// The environment, along this unit direction.
+    Escaped(Vec3),
+}
+
+impl Scene {
+    /// Radiance emitted by the front of `surface` (the same in every direction).
+    pub fn emission(&self, surface: &Surface) -> Spectrum {
+        self.materials[surface.material as usize].emission(&self.textures, &self.images, surface)
+    }
+
+    /// Samples a light, in proportion to power, and a point or direction on it for
+    /// reference point `p`, from the uniforms `u_select` (which light) and `u` (where on it).
+    /// None where the sample carries no light (the back of an emitter, a spot's outside).
+    pub fn sample_li(&self, p: Vec3, u_select: Vec2, u: Vec2) -> Option<LightSample> {
+        let (light, pmf) = self.light_sampler.sample(u_select)?;
+        match light {
+            LightRef::Triangle(tri) => {
+                let b = warp::uniform_triangle(u);
+                let emitter = self.surface(&Hit { tri, t: 0.0, b });
+                let q = emitter.p;
+                let to_light = q - p;
+                let dist2 = to_light.length_squared();
+                let wi = to_light / dist2.sqrt();
+                let cos_light = -wi.dot(emitter.ng);
+                if cos_light <= 0.0 || !wi.is_finite() {
+                    return None;
+                }
+                let radiance = self.emission(&emitter);
+                let pdf = pmf * dist2 / (cos_light * self.triangle_area(tri));
+                let target = LightTarget::Surface { p: q, error: emitter.p_error, n: emitter.ng };
+                Some(LightSample { wi, radiance, pdf, target, is_delta: false })
+            }
+            LightRef::Punctual(i) => {
+                let light = &self.lights[i as usize];
+                let (wi, radiance, target) = match light.kind {
+                    PunctualKind::Directional => {
+                        (-light.direction, Spectrum::from_illuminant_rgb(light.intensity), LightTarget::Infinite)
+                    }
+                    _ => {
+                        let to_light = light.position - p;
+                        let dist2 = to_light.length_squared();
+                        let wi = to_light / dist2.sqrt();
+                        (wi, light.intensity_towards(-wi) / dist2, LightTarget::Point(light.position))
+                    }
+                };
+                if radiance.is_black() || !wi.is_finite() {
+                    return None;
+                }
+                Some(LightSample { wi, radiance, pdf: pmf, target, is_delta: true })
+            }
+            LightRef::Environment => {
+                let (wi, radiance, pdf) = self.environment.as_ref()?.sample(u)?;
+                if radiance.is_black() {
+                    return None;
+                }
+                Some(LightSample { wi, radiance, pdf: pmf * pdf, target: LightTarget::Infinite, is_delta: false })
+            }
+        }
+    }
+
+    /// Density with which `sample_li` would have sampled the light `hit` (solid angle,
+    /// including the choice of the light), for MIS with the BSDF sample that found it.
+    pub fn pdf_li(&self, hit: LightHit) -> f32 {
+        match hit {
+            LightHit::Emitter { surface, wo, distance: t } => {
+                let cos_light = surface.ng.dot(wo);
+                let area = self.triangle_area(surface.tri);
+                self.light_sampler.triangle_pmf(surface.tri) * t * t / (cos_light * area)
+            }
+            LightHit::Escaped(d) => match &self.environment {
+                Some(env) => self.light_sampler.environment_pmf() * env.pdf(d),
+                None => 0.0,
+            },
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -182,9 +313,9 @@ mod tests {
             direction: -Vec3::Z,
             intensity: Vec3::ONE,
         };
-        assert_eq!(l.intensity_towards(-Vec3::Z), Vec3::ONE);
-        assert_eq!(l.intensity_towards(Vec3::X), Vec3::ZERO);
-        let mid = l.intensity_towards(Vec3::new(0.0, (1.0f32 - 0.85 * 0.85).sqrt(), -0.85)).x;
+        assert_eq!(l.intensity_towards(-Vec3::Z), Spectrum::ONE);
+        assert_eq!(l.intensity_towards(Vec3::X), Spectrum::ZERO);
+        let mid = l.intensity_towards(Vec3::new(0.0, (1.0f32 - 0.85 * 0.85).sqrt(), -0.85)).to_rgb().x;
         assert!((mid - 0.25).abs() < 1e-3);
     }
 }

@@ -1,14 +1,11 @@
 //! glTF materials (metallic-roughness with the KHR_materials_* extensions) and their
 //! evaluation into a BSDF at a surface point.
 
-use super::Surface;
 use super::texture::{ColorSpace, Image, Texture};
+use super::{Features, Surface};
 use crate::bsdf::{Bsdf, Lambert, MetalRough, measured::MerlTable, sheen::MIN_SHEEN_ALPHA};
+use crate::spectrum::Spectrum;
 use glam::{Affine2, Vec2, Vec3, Vec4, Vec4Swizzles};
-
-/// Smallest GGX alpha: below it the lobe is numerically a mirror (pbrt-v4's "effectively
-/// smooth" threshold); roughness 0 is rendered with this alpha.
-pub const MIN_ALPHA: f32 = 1e-3;
 
 /// A material slot's texture: which texture, which TEXCOORD set, and the
 /// KHR_texture_transform applied to the coordinates.
@@ -33,6 +30,18 @@ impl TexRef {
         let uv = self.transform.transform_point2(uv[(self.set as usize).min(1)]);
         textures[self.texture as usize].sample(images, uv, space)
     }
+}
+
+/// What a material reads from its scene to build a BSDF: textures, their images, and the
+/// scene's effects (so that a scene without textures or glossy lobes skips their checks).
+#[derive(Clone, Copy)]
+pub struct SceneRefs<'a> {
+    /// The scene's textures.
+    pub textures: &'a [Texture],
+    /// The images behind them.
+    pub images: &'a [Image],
+    /// The scene's effects.
+    pub features: Features,
 }
 
 /// How the base colour's alpha is used (glTF alphaMode).
@@ -244,27 +253,24 @@ impl Material {
 
     /// The BSDF at a surface point, seen from its front (`front`) or back side, with
     /// `outside_ior` the index of the medium on the side away from this material's volume.
-    /// `TEXTURES` and `GLOSSY` are the scene's feature switches: when off, texture lookups
-    /// and every lobe but the Lambertian are compiled out.
-    pub fn bsdf<const TEXTURES: bool, const GLOSSY: bool>(
-        &self,
-        textures: &[Texture],
-        images: &[Image],
-        surface: &Surface,
-        front: bool,
-        outside_ior: f32,
-    ) -> Bsdf<'_> {
+    /// Colours become spectra here (`Spectrum::from_rgb`); GGX alphas below
+    /// `bsdf::SMOOTH_ALPHA` become delta lobes in the BSDF. `features` are the scene's: in
+    /// a scene without textures or glossy lobes their checks are skipped.
+    #[inline]
+    pub fn bsdf(&self, scene: SceneRefs<'_>, surface: &Surface, front: bool, outside_ior: f32) -> Bsdf<'_> {
+        let SceneRefs { textures, images, features } = scene;
         if let Some(m) = &self.measured {
             return Bsdf::Measured(&m.table);
         }
         let mut base = self.base_color * surface.color.xyz();
-        let lookup =
-            |t: Option<TexRef>, space| t.filter(|_| TEXTURES).map(|t| t.sample(textures, images, &surface.uv, space));
+        let lookup = |t: Option<TexRef>, space| {
+            t.filter(|_| features.textures).map(|t| t.sample(textures, images, &surface.uv, space))
+        };
         if let Some(c) = lookup(self.base_color_tex, ColorSpace::Srgb) {
             base *= c.xyz();
         }
-        if !(GLOSSY && self.is_glossy()) {
-            return Bsdf::Lambert(Lambert { albedo: base });
+        if !(features.glossy && self.is_glossy()) {
+            return Bsdf::Lambert(Lambert { albedo: Spectrum::from_rgb(base) });
         }
         let (mut metallic, mut roughness) = (self.metallic, self.roughness);
         if let Some(mr) = lookup(self.metallic_roughness_tex, ColorSpace::Linear) {
@@ -289,29 +295,29 @@ impl Material {
             (Some(_), true) => ior / outside_ior,
             (Some(_), false) => outside_ior / ior,
         };
-        let alpha = |r: f32| (r * r).clamp(MIN_ALPHA, 1.0);
+        let alpha = |r: f32| (r * r).clamp(0.0, 1.0);
         Bsdf::MetalRough(MetalRough {
-            base: base.clamp(Vec3::ZERO, Vec3::ONE),
+            base: Spectrum::from_rgb(base.clamp(Vec3::ZERO, Vec3::ONE)),
             metallic: metallic.clamp(0.0, 1.0),
             alpha: alpha(roughness),
-            dielectric_f0: (f0 * specular_tint).min(Vec3::ONE),
+            dielectric_f0: Spectrum::from_rgb((f0 * specular_tint).min(Vec3::ONE)),
             specular: specular.clamp(0.0, 1.0),
-            specular_tint,
+            specular_tint: Spectrum::from_rgb(specular_tint),
             transmission: transmission.clamp(0.0, 1.0),
             eta,
             thin: self.volume.is_none(),
             clearcoat: clearcoat.clamp(0.0, 1.0),
             clearcoat_alpha: alpha(clearcoat_roughness),
-            sheen: sheen.clamp(Vec3::ZERO, Vec3::ONE),
+            sheen: Spectrum::from_rgb(sheen.clamp(Vec3::ZERO, Vec3::ONE)),
             sheen_alpha: (sheen_roughness * sheen_roughness).clamp(MIN_SHEEN_ALPHA, 1.0),
         })
     }
 
     /// Emitted radiance at a surface point (the same from every direction on the front side).
-    pub fn emission<const TEXTURES: bool>(&self, textures: &[Texture], images: &[Image], surface: &Surface) -> Vec3 {
-        match self.emissive_tex {
-            Some(t) if TEXTURES => self.emissive * t.sample(textures, images, &surface.uv, ColorSpace::Srgb).xyz(),
-            _ => self.emissive,
-        }
+    pub fn emission(&self, textures: &[Texture], images: &[Image], surface: &Surface) -> Spectrum {
+        Spectrum::from_illuminant_rgb(match self.emissive_tex {
+            Some(t) => self.emissive * t.sample(textures, images, &surface.uv, ColorSpace::Srgb).xyz(),
+            None => self.emissive,
+        })
     }
 }

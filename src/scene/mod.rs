@@ -1,5 +1,5 @@
 //! The immutable scene: triangles in a BVH, materials, textures, lights, cameras, and the
-//! set of effects it contains, which selects the integrator kernel.
+//! set of effects it contains, which switches the integrator's per-bounce work.
 
 pub mod camera;
 pub mod environment;
@@ -24,8 +24,9 @@ use shading::terminator_offset;
 use std::sync::Arc;
 use texture::{ColorSpace, Image, Texture};
 
-/// Effects a scene contains. The integrator is monomorphised over this set, so a scene
-/// never pays for an effect it does not contain.
+/// Effects a scene contains. `volumes` and `cutouts` switch per-bounce work in the
+/// integrator and the traversal (a scene without them does not track media or filter hits);
+/// the others describe the scene, for messages and for preparing tables.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Features {
     /// Some triangle emits light.
@@ -46,7 +47,7 @@ pub struct Features {
 }
 
 impl Features {
-    /// Every effect switched on: the general kernel, for comparisons.
+    /// Every effect switched on: the general path, for comparisons.
     pub const ALL: Self = Self {
         emissive: true,
         punctual: true,
@@ -155,7 +156,7 @@ pub struct Scene {
     pub cameras: Vec<(String, Camera)>,
     /// Bounds of all geometry (min, max).
     pub bounds: (Vec3, Vec3),
-    /// Effects present, selecting the integrator kernel.
+    /// Effects present.
     pub features: Features,
     /// Loader and build warnings, one line each.
     pub warnings: Vec<String>,
@@ -317,6 +318,19 @@ impl Scene {
             Some((_, cam)) => *cam,
             None => Camera::framing(self.bounds.0, self.bounds.1, aspect),
         }
+    }
+
+    /// What materials read from the scene to build their BSDFs.
+    pub fn refs(&self) -> material::SceneRefs<'_> {
+        material::SceneRefs { textures: &self.textures, images: &self.images, features: self.features }
+    }
+
+    /// The file's camera number `index` (0-based); the error is one line.
+    pub fn file_camera(&self, index: usize) -> Result<Camera, String> {
+        self.cameras.get(index).map(|(_, c)| *c).ok_or_else(|| {
+            let n = self.cameras.len();
+            format!("camera {index}: {} has {n} camera{}", self.name, if n == 1 { "" } else { "s" })
+        })
     }
 
     /// Radius of a sphere around the scene's bounds.

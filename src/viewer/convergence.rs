@@ -2,7 +2,8 @@
 //! one curve per job (earlier jobs kept for comparison), the time still needed to reach a
 //! target error, and the false colours of the per-pixel error view.
 
-use crate::integrator::{Integrator, Settings};
+use crate::integrator::Settings;
+use crate::params::Group;
 use crate::render::Snapshot;
 use std::collections::VecDeque;
 
@@ -57,14 +58,17 @@ impl ConvergenceLog {
     }
 }
 
-/// A short label for the settings that make curves differ.
+/// A short label for the settings that make curves differ: every estimator setting of the
+/// table that applies and differs from its default (seed and sample target aside).
 pub fn label(s: &Settings) -> String {
-    let estimator = match s.integrator {
-        Integrator::Path => "PT".to_string(),
-        Integrator::Distribution => format!("DRT {} {:?}", s.branching, s.directions),
-    };
-    let importance = if s.importance_sampling { "" } else { " uniform" };
-    format!("{estimator}{importance} lights {:?}, {:?}", s.light_sampling, s.sampler)
+    let defaults = Settings::default();
+    let differences: Vec<String> = Settings::table()
+        .iter()
+        .filter(|p| p.group == Group::Estimator && !matches!(p.name, "seed" | "spp"))
+        .filter(|p| (p.shown)(s) && (p.get)(s) != (p.get)(&defaults))
+        .map(|p| format!("{} {}", p.name, (p.get)(s)))
+        .collect();
+    if differences.is_empty() { "default estimator".into() } else { differences.join(", ") }
 }
 
 /// False colour of a relative standard error: log scale from 0.1% (dark) to 100% (bright).
@@ -123,6 +127,20 @@ mod tests {
         // Halving the error takes four times the time: 3 x 2 s more.
         assert!((log.time_to(rel / 2.0).unwrap() - 6.0).abs() < 1e-9);
         assert_eq!(log.time_to(rel * 2.0), Some(0.0));
+    }
+
+    #[test]
+    fn labels_name_what_differs_from_the_defaults() {
+        assert_eq!(label(&Settings::default()), "default estimator");
+        let s = Settings {
+            light_sampling: crate::integrator::LightSampling::Explicit,
+            branching: 4,
+            seed: 9,
+            ..Settings::default()
+        };
+        assert_eq!(label(&s), "lights explicit", "branching applies to DRT only, the seed to no curve");
+        let drt = Settings { integrator: crate::integrator::Integrator::Distribution, ..s };
+        assert_eq!(label(&drt), "integrator distribution, branching 4, lights explicit");
     }
 
     #[test]

@@ -7,9 +7,8 @@ mod gpu;
 pub mod state;
 mod ui;
 
-use crate::cli::args::ViewArgs;
-use crate::cli::render::load_scene;
-use crate::film::output::{Format, check_writable};
+use crate::config::ViewFile;
+use crate::open::{OpenOptions, open};
 use crate::render::Snapshot;
 use gpu::Gpu;
 use state::ViewerState;
@@ -33,28 +32,36 @@ const REFRESH: Duration = Duration::from_millis(250);
 /// What decides how an image is drawn: display transform, error view, selected material.
 type Look = (crate::film::tonemap::Display, bool, Option<u32>);
 
-/// Opens the viewer; with `--screenshot`, renders to `--spp`, saves and exits.
-pub fn run(args: &ViewArgs) -> Result<(), String> {
-    let resolved = args.options.resolve(args.spp)?;
-    if let Some(shot) = &args.screenshot
-        && check_writable(shot).map_err(|e| e.to_string())? != Format::Png
-    {
-        return Err(format!("--screenshot {} must name a .png (the .exr is written beside it)", shot.display()));
+/// What the viewer opens, as the command line resolved it.
+pub struct Launch {
+    /// The glTF file (None: the built-in Cornell box).
+    pub scene: Option<PathBuf>,
+    /// Settings, display, camera and environment.
+    pub view: ViewFile,
+    /// Look through the file's camera with this index instead of `view.camera`.
+    pub file_camera: Option<usize>,
+    /// Render at the view's size instead of following the window.
+    pub fixed_size: bool,
+    /// Worker threads (None: one per core).
+    pub threads: Option<usize>,
+    /// Render until the target spp, save this PNG (and an EXR beside it) and exit.
+    pub screenshot: Option<PathBuf>,
+}
+
+/// Opens the viewer; with a screenshot path, renders to the target spp, saves and exits.
+pub fn run(launch: Launch) -> Result<(), String> {
+    let Launch { scene: path, view, file_camera, fixed_size, threads, screenshot } = launch;
+    let scene = open(path.as_deref(), &OpenOptions { environment: view.environment.clone() }, &mut |_| {})?;
+    for w in &scene.warnings {
+        eprintln!("warning: {w}");
     }
-    let fixed = args.options.width.is_some() || args.options.height.is_some() || args.options.view.is_some();
-    let scene = load_scene(args.scene.as_deref(), &resolved.environment)?;
-    let camera = crate::cli::args::pick_camera(args.options.camera, resolved.camera, &scene)?;
-    let state = ViewerState::new(
-        scene,
-        args.scene.clone(),
-        resolved.settings,
-        fixed,
-        resolved.display,
-        camera,
-        args.options.threads,
-    )?;
+    let camera = match file_camera {
+        Some(i) => Some(scene.file_camera(i).map_err(|e| format!("--{e}"))?),
+        None => view.camera,
+    };
+    let state = ViewerState::new(scene, path, view.settings, fixed_size, view.display, camera, threads)?;
     let event_loop = EventLoop::new().map_err(|e| format!("cannot open a window: {e}"))?;
-    let mut app = App::new(state, args.screenshot.clone());
+    let mut app = App::new(state, screenshot);
     event_loop.run_app(&mut app).map_err(|e| format!("the window's event loop failed: {e}"))?;
     if app.screenshot.is_none() {
         eprintln!("{}", app.summary());

@@ -8,7 +8,7 @@ use crate::config::ViewFile;
 use crate::film::output::write_image;
 use crate::film::tonemap::Display;
 use crate::integrator::Settings;
-use crate::loader::gltf;
+use crate::open::{OpenOptions, Stage, open};
 use crate::render::{Job, RenderSession, Snapshot};
 use crate::scene::{
     Scene,
@@ -248,11 +248,8 @@ impl ViewerState {
         let building = Arc::new(AtomicBool::new(false));
         let (p, b) = (path.clone(), Arc::clone(&building));
         std::thread::spawn(move || {
-            let result = gltf::load(&p).map_err(|e| e.to_string()).map(|desc| {
-                b.store(true, Ordering::Relaxed);
-                Scene::build(desc)
-            });
-            let _ = tx.send(result);
+            let mut progress = |stage| b.store(stage == Stage::Building, Ordering::Relaxed);
+            let _ = tx.send(open(Some(&p), &OpenOptions::default(), &mut progress));
         });
         self.error = None;
         self.loading = Some(Loading { path, building, result: rx });

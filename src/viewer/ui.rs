@@ -2,9 +2,10 @@
 //! the lights on the right, the converging image in the middle with camera controls.
 
 use super::state::ViewerState;
-use crate::film::tonemap::Tonemap;
+use crate::film::tonemap::DISPLAY;
 use crate::integrator::settings::DRT_RAY_BUDGET;
-use crate::integrator::{Directions, Integrator, LightSampling, PixelSampling, SamplerKind};
+use crate::integrator::{Integrator, Settings};
+use crate::params::{Domain, Group, Param, Value};
 use crate::render::Snapshot;
 use egui::{Color32, Key, PointerButton, Rect, Sense, Ui, pos2};
 use egui_plot::{GridMark, Legend, Line, Plot, log_grid_spacer};
@@ -115,22 +116,14 @@ fn controls(ui: &mut Ui, state: &mut ViewerState, ui_state: &mut UiState) {
     ui.separator();
     egui::CollapsingHeader::new("Estimator").default_open(true).show(ui, |ui| estimator(ui, state));
     egui::CollapsingHeader::new("Display").default_open(true).show(ui, |ui| {
-        ui.add(egui::Slider::new(&mut state.display.exposure, -10.0..=10.0).text("exposure (EV)"));
-        egui::ComboBox::from_label("tone curve").selected_text(format!("{:?}", state.display.tonemap)).show_ui(
-            ui,
-            |ui| {
-                for t in [Tonemap::Linear, Tonemap::Aces, Tonemap::PbrNeutral] {
-                    ui.selectable_value(&mut state.display.tonemap, t, format!("{t:?}"));
-                }
-            },
-        );
+        for p in DISPLAY {
+            param_widget(ui, p, &mut state.display);
+        }
         ui.checkbox(&mut state.fixed_size, "fixed resolution");
         if state.fixed_size {
-            ui.horizontal(|ui| {
-                ui.add(egui::DragValue::new(&mut state.settings.width).range(1..=16384));
-                ui.label("x");
-                ui.add(egui::DragValue::new(&mut state.settings.height).range(1..=16384));
-            });
+            for p in Settings::table().iter().filter(|p| p.group == Group::Image) {
+                param_widget(ui, p, &mut state.settings);
+            }
         }
     });
     egui::CollapsingHeader::new("Convergence").default_open(true).show(ui, |ui| convergence(ui, state, ui_state));
@@ -139,75 +132,93 @@ fn controls(ui: &mut Ui, state: &mut ViewerState, ui_state: &mut UiState) {
     egui::CollapsingHeader::new("Files").default_open(true).show(ui, |ui| files(ui, state));
 }
 
+/// The render settings of the table's estimator and robustness groups, with the
+/// distribution ray tracer's cost beside them.
 fn estimator(ui: &mut Ui, state: &mut ViewerState) {
     let s = &mut state.settings;
-    ui.checkbox(&mut s.importance_sampling, "importance sampling");
-    egui::ComboBox::from_label("light sampling").selected_text(format!("{:?}", s.light_sampling)).show_ui(ui, |ui| {
-        ui.selectable_value(&mut s.light_sampling, LightSampling::Off, "Off");
-        ui.selectable_value(&mut s.light_sampling, LightSampling::Explicit, "Explicit");
-        ui.selectable_value(&mut s.light_sampling, LightSampling::Mis, "Mis");
-    });
-    egui::ComboBox::from_label("sampler").selected_text(format!("{:?}", s.sampler)).show_ui(ui, |ui| {
-        ui.selectable_value(&mut s.sampler, SamplerKind::Independent, "Independent");
-        ui.selectable_value(&mut s.sampler, SamplerKind::Sobol, "Sobol (Owen-scrambled)");
-    });
-    egui::ComboBox::from_label("integrator").selected_text(format!("{:?}", s.integrator)).show_ui(ui, |ui| {
-        ui.selectable_value(&mut s.integrator, Integrator::Path, "Path");
-        ui.selectable_value(&mut s.integrator, Integrator::Distribution, "Distribution (branching)");
-    });
+    for p in Settings::table().iter().filter(|p| p.group == Group::Estimator) {
+        param_widget(ui, p, s);
+    }
     if s.integrator == Integrator::Distribution {
-        ui.add(egui::Slider::new(&mut s.branching, 1..=64).text("directions per hit"));
-        egui::ComboBox::from_label("directions").selected_text(format!("{:?}", s.directions)).show_ui(ui, |ui| {
-            ui.selectable_value(&mut s.directions, Directions::Stratified, "Stratified (Monte Carlo)");
-            ui.selectable_value(&mut s.directions, Directions::Grid, "Grid (biased baseline)");
-        });
         let rays = s.rays_per_sample_bound();
-        ui.label(format!("up to {rays:.3e} rays per sample (branching^depth)"));
-        if rays > DRT_RAY_BUDGET {
-            ui.checkbox(&mut s.allow_expensive, format!("render anyway (budget {DRT_RAY_BUDGET:.0e})"));
-        }
+        ui.label(format!("up to {rays:.3e} rays per sample (branching^depth, budget {DRT_RAY_BUDGET:.0e})"));
     }
     if let Some(e) = &state.settings_error {
         ui.colored_label(Color32::LIGHT_RED, e);
     }
-    ui.add(egui::Slider::new(&mut s.max_depth, 0..=64).text("max depth"));
-    ui.add(egui::Slider::new(&mut s.rr_depth, 0..=64).text("roulette from"));
-    egui::ComboBox::from_label("pixel sampling").selected_text(format!("{:?}", s.pixel_sampling)).show_ui(ui, |ui| {
-        for p in [PixelSampling::Random, PixelSampling::Stratified, PixelSampling::Grid] {
-            ui.selectable_value(&mut s.pixel_sampling, p, format!("{p:?}"));
-        }
-    });
-    if s.pixel_sampling != PixelSampling::Random {
-        ui.add(egui::Slider::new(&mut s.strata, 1..=16).text("strata per axis"));
-    }
-    let mut clamp = s.firefly_clamp.is_some();
-    ui.horizontal(|ui| {
-        ui.checkbox(&mut clamp, "firefly clamp (biased)");
-        let mut c = s.firefly_clamp.unwrap_or(10.0);
-        if clamp {
-            ui.add(egui::DragValue::new(&mut c).range(1e-3..=1e6).speed(0.1));
-        }
-        s.firefly_clamp = clamp.then_some(c);
-    });
-    let mut target = s.target_spp.is_some();
-    ui.horizontal(|ui| {
-        ui.checkbox(&mut target, "stop at spp");
-        let mut t = s.target_spp.unwrap_or(256);
-        if target {
-            ui.add(egui::DragValue::new(&mut t).range(1..=1_000_000));
-        }
-        s.target_spp = target.then_some(t);
-    });
-    ui.horizontal(|ui| {
-        ui.label("seed");
-        ui.add(egui::DragValue::new(&mut s.seed));
-    });
     egui::CollapsingHeader::new("Robustness (switch off to see what it prevents)").show(ui, |ui| {
-        let r = &mut s.robustness;
-        ui.checkbox(&mut r.watertight, "watertight triangle test (off: leaks at edges)");
-        ui.checkbox(&mut r.offset_origins, "error-bound ray offsets (off: shadow acne)");
-        ui.checkbox(&mut r.terminator, "shadow-terminator offset (off: faceted terminator)");
+        for p in Settings::table().iter().filter(|p| p.group == Group::Robustness) {
+            param_widget(ui, p, s);
+        }
     });
+}
+
+/// The widget of one table parameter, shown only where the parameter applies: a checkbox,
+/// a slider for short ranges, a drag value for long ones, a menu for choices; optional
+/// parameters get a checkbox that sets or unsets them.
+fn param_widget<T>(ui: &mut Ui, p: &Param<T>, target: &mut T) {
+    if !(p.shown)(target) {
+        return;
+    }
+    let value = (p.get)(target);
+    let new = match (p.domain, value) {
+        (Domain::Switch, Value::Bool(mut on)) => {
+            ui.checkbox(&mut on, p.label).on_hover_text(p.help);
+            Value::Bool(on)
+        }
+        (Domain::Choice(options), Value::Choice(mut name)) => {
+            egui::ComboBox::from_label(p.label).selected_text(name).show_ui(ui, |ui| {
+                for c in options {
+                    ui.selectable_value(&mut name, c.name, c.name).on_hover_text(c.help);
+                }
+            });
+            Value::Choice(name)
+        }
+        (Domain::Int { min, max, optional }, v) => {
+            ui.horizontal(|ui| {
+                let mut set = v != Value::Unset;
+                if optional {
+                    ui.checkbox(&mut set, p.label).on_hover_text(p.help);
+                }
+                let mut i = if let Value::Int(i) = v { i } else { 256u64.clamp(min, max) };
+                if set {
+                    let widget = if max - min <= 64 {
+                        ui.add(egui::Slider::new(&mut i, min..=max).text(if optional { "" } else { p.label }))
+                    } else {
+                        ui.add(egui::DragValue::new(&mut i).range(min..=max))
+                    };
+                    widget.on_hover_text(p.help);
+                    if !optional && max - min > 64 {
+                        ui.label(p.label);
+                    }
+                }
+                if set { Value::Int(i) } else { Value::Unset }
+            })
+            .inner
+        }
+        (Domain::Float { min, max, optional }, v) => {
+            ui.horizontal(|ui| {
+                let mut set = v != Value::Unset;
+                if optional {
+                    ui.checkbox(&mut set, p.label).on_hover_text(p.help);
+                }
+                let mut x = if let Value::Float(x) = v { x } else { 10.0f32.clamp(min, max) };
+                if set {
+                    if max - min <= 100.0 {
+                        ui.add(egui::Slider::new(&mut x, min..=max).text(if optional { "" } else { p.label }));
+                    } else {
+                        ui.add(egui::DragValue::new(&mut x).range(min..=max).speed(0.1));
+                    }
+                }
+                if set { Value::Float(x) } else { Value::Unset }
+            })
+            .inner
+        }
+        _ => value,
+    };
+    if new != value {
+        (p.set)(target, new);
+    }
 }
 
 /// The estimated error against time (log-log) of this job and the previous ones, the time

@@ -82,6 +82,10 @@ pub fn chi2_p_value(observed: &[f64], expected: &[f64]) -> f64 {
     } else {
         assert_eq!(pooled_o, 0.0, "samples where the pdf is zero");
     }
+    if dof < 2 {
+        // One category (a BSDF that is a single delta, say): nothing to fit.
+        return 1.0;
+    }
     1.0 - ChiSquared::new((dof - 1) as f64).unwrap().cdf(stat)
 }
 

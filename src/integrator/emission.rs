@@ -1,0 +1,45 @@
+//! Light a path finds by itself: the emitters its rays hit and the environment where they
+//! leave the scene, each weighted against light sampling so nothing is counted twice.
+
+use super::media::{Media, transmittance};
+use super::mis::{Scattered, emission_weight};
+use super::nan::{NanCause, check};
+use super::settings::Settings;
+use crate::scene::{Scene, Surface, light::LightHit};
+use crate::spectrum::Spectrum;
+use glam::Vec3;
+
+/// Radiance emitted towards `wo` by the front of `surface`, reached at distance `t` (in
+/// units of the ray's direction, which was `-wo`) by a ray sampled as `last`.
+#[inline]
+pub fn emitted(
+    scene: &Scene,
+    settings: &Settings,
+    surface: &Surface,
+    wo: Vec3,
+    t: f32,
+    last: Option<Scattered>,
+) -> Spectrum {
+    if !scene.materials[surface.material as usize].is_emissive() {
+        return Spectrum::ZERO;
+    }
+    let le = scene.emission(surface);
+    let weight = emission_weight(settings, last, || scene.pdf_li(LightHit::Emitter { surface, wo, distance: t }));
+    check(NanCause::Emission, le);
+    le * weight
+}
+
+/// Radiance from the environment along `d`, the direction of a ray sampled as `last` that
+/// left the scene, attenuated by the volume the ray was in.
+#[inline]
+pub fn escaped(scene: &Scene, settings: &Settings, d: Vec3, last: Option<Scattered>, media: &Media) -> Spectrum {
+    let Some(env) = &scene.environment else { return Spectrum::ZERO };
+    let d = d.normalize();
+    let weight = emission_weight(settings, last, || scene.pdf_li(LightHit::Escaped(d)));
+    if weight == 0.0 {
+        return Spectrum::ZERO;
+    }
+    let le = env.radiance(d) * weight;
+    check(NanCause::Emission, le);
+    if scene.features.volumes { le * transmittance(media.sigma_a(&scene.materials), f32::INFINITY) } else { le }
+}

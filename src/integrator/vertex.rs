@@ -1,0 +1,83 @@
+//! A surface scattering vertex: where a ray met a surface, the shading frame turned to the
+//! side it arrived from, the BSDF there, where rays leave from, and the volumes the path is
+//! in. Shared by the path tracer and the distribution ray tracer.
+
+use super::media::Media;
+use super::settings::Settings;
+use crate::bsdf::Bsdf;
+use crate::math::frame::Frame;
+use crate::scene::{Scene, Surface, shading::bend_normal};
+use glam::Vec3;
+
+/// Shading frame at `surface` for a ray arriving from `wo`, turned to the side it arrived
+/// from (`front`; every surface is shaded two-sided). A shading normal on the other side of
+/// the surface falls back to the geometric one, and one that would reflect the view below
+/// the surface is bent (`bend_normal`).
+fn shading_frame(surface: &Surface, front: bool, wo: Vec3) -> Frame {
+    let ng = if front { surface.ng } else { -surface.ng };
+    let ns = if front { surface.ns } else { -surface.ns };
+    Frame::from_normal(bend_normal(ng, wo, if ns.dot(ng) > 0.0 { ns } else { ng }))
+}
+
+/// A scattering event on a surface.
+pub struct Vertex<'a> {
+    /// The surface point.
+    pub surface: Surface,
+    /// The path arrived on the front (glTF winding) side.
+    pub front: bool,
+    /// Shading frame, normal on the arriving side.
+    pub frame: Frame,
+    /// Direction back along the arriving ray, in the shading frame.
+    pub wo: Vec3,
+    /// The BSDF at the point.
+    pub bsdf: Bsdf<'a>,
+    /// Origin of rays leaving on the arriving side (see `Scene::reflection_origin`).
+    pub origin: Vec3,
+    /// Origin of rays crossing the surface.
+    pub behind: Vec3,
+    /// Volumes the path is in when it arrives.
+    pub media: Media,
+}
+
+impl<'a> Vertex<'a> {
+    /// The vertex where a ray travelling along `d` meets `surface`.
+    pub fn new(scene: &'a Scene, settings: &Settings, surface: Surface, d: Vec3, media: Media) -> Self {
+        let wo_world = -d;
+        let front = surface.ng.dot(wo_world) > 0.0;
+        let frame = shading_frame(&surface, front, wo_world);
+        let material = &scene.materials[surface.material as usize];
+        let outside_ior =
+            if scene.features.volumes { media.outside_ior(&scene.materials, surface.material, front) } else { 1.0 };
+        let bsdf = material.bsdf(scene.refs(), &surface, front, outside_ior);
+        let origin = scene.reflection_origin(&surface, front, settings.terminator, settings.offset_origins);
+        let behind = if bsdf.transmits() {
+            scene.reflection_origin(&surface, !front, false, settings.offset_origins)
+        } else {
+            origin
+        };
+        Self { wo: frame.to_local(wo_world), surface, front, frame, bsdf, origin, behind, media }
+    }
+
+    /// The ray leaving along shading-frame direction `wi`: world direction, origin, and
+    /// whether it crosses the surface. None for a transmitted direction that the shading
+    /// normal put on the arriving side of the actual surface.
+    #[inline]
+    pub fn leave(&self, wi: Vec3) -> Option<(Vec3, Vec3, bool)> {
+        let d = self.frame.to_world(wi);
+        if wi.z >= 0.0 {
+            return Some((d, self.origin, false));
+        }
+        let ng = if self.front { self.surface.ng } else { -self.surface.ng };
+        (d.dot(ng) < 0.0).then_some((d, self.behind, true))
+    }
+
+    /// The volumes a ray leaving here is in.
+    #[inline]
+    pub fn media_after(&self, scene: &Scene, crosses: bool) -> Media {
+        let mut media = self.media;
+        if crosses && scene.features.volumes && scene.materials[self.surface.material as usize].is_volume() {
+            media.cross(self.surface.material, self.front);
+        }
+        media
+    }
+}

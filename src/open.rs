@@ -1,0 +1,47 @@
+//! The library's entry point: a scene from a glTF file (or the built-in Cornell box), lit
+//! by the environment asked for, ready to render. The command line and the viewer both
+//! open scenes here; progress is reported as data, warnings stay in `Scene::warnings`.
+
+use crate::loader::{builtin, gltf};
+use crate::scene::{
+    Scene,
+    environment::{EnvSettings, Environment},
+};
+use std::path::Path;
+
+/// What `open` is doing, for progress displays.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Stage {
+    /// Reading the environment map.
+    Environment,
+    /// Reading and converting the file (buffers, images, meshes, materials).
+    Reading,
+    /// Building the BVH and the light sampler.
+    Building,
+}
+
+/// How to open a scene.
+#[derive(Clone, Debug, Default)]
+pub struct OpenOptions {
+    /// What lights the scene from outside.
+    pub environment: EnvSettings,
+}
+
+/// Opens the glTF file at `path` (None: the built-in Cornell box) lit by
+/// `options.environment`, calling `progress` as each stage begins. Errors are one line.
+pub fn open(path: Option<&Path>, options: &OpenOptions, progress: &mut dyn FnMut(Stage)) -> Result<Scene, String> {
+    let environment = if options.environment.is_black() {
+        None
+    } else {
+        progress(Stage::Environment);
+        Some(Environment::load(options.environment.clone())?)
+    };
+    progress(Stage::Reading);
+    let desc = match path {
+        Some(p) => gltf::load(p).map_err(|e| e.to_string())?,
+        None => builtin::cornell_box(),
+    };
+    progress(Stage::Building);
+    let scene = Scene::build(desc);
+    Ok(if environment.is_some() { scene.with_environment(environment) } else { scene })
+}
