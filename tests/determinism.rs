@@ -1,6 +1,6 @@
 //! Reproducibility: every pixel sample is a pure function of (pixel, index, seed), so
-//! images are bit-identical whatever the thread count, and the kernel specialised to a
-//! scene's features gives the same bits as the general one.
+//! images are bit-identical whatever the thread count, and skipping the effects a scene
+//! lacks gives the same bits as running every feature's code.
 
 mod common;
 
@@ -37,7 +37,7 @@ fn images_are_bit_identical_with_one_and_many_threads() {
 }
 
 #[test]
-fn the_specialised_kernel_gives_the_bits_of_the_general_one() {
+fn skipping_absent_effects_gives_the_bits_of_running_them_all() {
     let specialised = Arc::new(Scene::build(builtin::cornell_box()));
     // The box's glTF materials are single-sided, so camera rays cull back faces.
     assert_eq!(specialised.features, Features { emissive: true, cutouts: true, ..Features::default() });
@@ -49,6 +49,6 @@ fn the_specialised_kernel_gives_the_bits_of_the_general_one() {
         let s = Settings { light_sampling, ..settings(1) };
         let a = common::render(&specialised, camera, s, None);
         let b = common::render(&general, camera, s, None);
-        assert!(a.mean == b.mean, "{light_sampling:?}: specialised and general kernels differ");
+        assert!(a.mean == b.mean, "{light_sampling:?}: the scene's switches and every feature on differ");
     }
 }

@@ -249,7 +249,7 @@ pub struct ViewArgs {
 /// What `lucent bench` measures.
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum BenchKind {
-    /// The kernel specialised to the scene's features against the general kernel (Cornell box).
+    /// The scene's own feature switches against every switch on (Cornell box).
     Kernel,
     /// Each robustness mechanism switched off in turn, against all of them on.
     Robustness,

@@ -1,6 +1,6 @@
 //! `lucent bench`: samples/s and rays/s, measured with variants alternating in one run so
-//! that their ratios are meaningful on a noisy machine. `kernel` compares the kernel
-//! specialised to the scene's features with the general one on the Cornell box;
+//! that their ratios are meaningful on a noisy machine. `kernel` compares the scene's own
+//! feature switches (what it pays for) with every switch on, on the Cornell box;
 //! `robustness` measures each numerical-robustness mechanism by switching it off.
 
 use super::args::{BenchArgs, BenchKind, ConvergenceArgs, Mechanism};
@@ -84,8 +84,8 @@ fn kernel_variants(scene: &Arc<Scene>, settings: Settings) -> Vec<Variant> {
     let general = scene.with_edits(scene.materials.clone(), scene.lights.clone());
     let general = Arc::new(Scene { features: Features::ALL, ..general });
     vec![
-        Variant { label: "specialised kernel".into(), scene: Arc::clone(scene), settings },
-        Variant { label: "general kernel".into(), scene: general, settings },
+        Variant { label: "scene's features".into(), scene: Arc::clone(scene), settings },
+        Variant { label: "every feature on".into(), scene: general, settings },
     ]
 }
 
