@@ -64,7 +64,6 @@ fn metal_rough_spheres_render_without_nan() {
 fn every_other_model_renders_without_nan() {
     for rel in [
         "TwoSidedPlane/glTF/TwoSidedPlane.gltf",
-        "DamagedHelmet/glTF-Binary/DamagedHelmet.glb",
         "WaterBottle/glTF/WaterBottle.gltf",
         "TransmissionTest/glTF-Binary/TransmissionTest.glb",
         "TransmissionRoughnessTest/glTF-Binary/TransmissionRoughnessTest.glb",

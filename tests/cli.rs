@@ -145,6 +145,31 @@ fn a_saved_view_renders_headless_and_options_override_it() {
 }
 
 #[test]
+fn the_built_in_sky_is_chosen_by_name_on_the_command_line_and_in_a_view_file() {
+    // The box's open front sees the sky: the map lights it, alike from the flag and the file.
+    let dir = out_dir("built-in");
+    let render = |extra: &[&str], out: &str| {
+        let out = dir.join(out);
+        let mut args =
+            vec!["render", "--spp", "2", "--strata", "1", "--width", "24", "--height", "16", "--max-depth", "2"];
+        args.extend_from_slice(extra);
+        args.extend(["--out", out.to_str().unwrap()]);
+        let o = lucent(&args);
+        assert!(o.status.success(), "{}", stderr(&o));
+        image::open(out).unwrap().into_rgb32f()
+    };
+    let view = dir.join("sky.toml");
+    std::fs::write(&view, "[environment]\nmap = \"built-in\"\n").unwrap();
+    let from_flag = render(&["--env", "built-in"], "flag.exr");
+    let from_view = render(&["--view", view.to_str().unwrap()], "view.exr");
+    let unlit = render(&[], "unlit.exr");
+    assert!(from_flag.as_raw() == from_view.as_raw(), "the flag and the view file choose the same sky");
+    assert!(from_flag.as_raw() != unlit.as_raw(), "the built-in sky lights the box");
+    let help = String::from_utf8_lossy(&lucent(&["render", "--help"]).stdout).into_owned();
+    assert!(help.contains("built-in"), "--env's help names the built-in map: {help}");
+}
+
+#[test]
 fn bench_robustness_measures_every_mechanism_against_all_on() {
     let o = lucent(&["bench", "robustness", "--runs", "1", "--spp", "1", "--size", "16"]);
     assert!(o.status.success(), "{}", stderr(&o));

@@ -163,7 +163,7 @@ fn nan_infinite_and_huge_vertices_are_dropped_with_a_warning() {
 #[test]
 fn nan_vertices_in_a_gltf_file_are_dropped_with_a_warning() {
     // The built-in Cornell box with one vertex of its first mesh overwritten by NaN.
-    let text = std::fs::read_to_string(common::shared().join("scenes/cornell-box.gltf")).unwrap();
+    let text = std::fs::read_to_string(common::cornell_box_file()).unwrap();
     let mut doc: serde_json::Value = serde_json::from_str(&text).unwrap();
     let uri = doc["buffers"][0]["uri"].as_str().unwrap().to_owned();
     let (head, data) = uri.split_once(',').unwrap();

@@ -1,11 +1,9 @@
-//! Bad input: a proptest generator mutates real glTF files from ../shared (bytes flipped,
-//! inserted or cut; JSON values replaced or deleted, inside .gltf and inside a .glb's JSON
-//! chunk), and each mutant goes through loading, scene building and a few pixel samples.
-//! Every step may refuse the input with an error; none may panic. The case count is fixed
-//! (LUCENT_FUZZ_CASES overrides it), so the run is bounded and reproducible. Inputs that
-//! once crashed are kept in tests/fuzz-corpus and replayed first.
-
-mod common;
+//! Bad input: a proptest generator mutates real glTF files from tests/assets and assets/
+//! (bytes flipped, inserted or cut; JSON values replaced or deleted, inside .gltf and inside
+//! a .glb's JSON chunk), and each mutant goes through loading, scene building and a few
+//! pixel samples. Every step may refuse the input with an error; none may panic. The case
+//! count is fixed (LUCENT_FUZZ_CASES overrides it), so the run is bounded and reproducible.
+//! Inputs that once crashed are kept in tests/fuzz-corpus and replayed first.
 
 use glam::UVec2;
 use lucent::integrator::{Settings, sample_pixel};
@@ -16,13 +14,14 @@ use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
 use serde_json::Value;
 use std::path::PathBuf;
 
-/// Small, self-contained seed files (.glb, or .gltf with embedded buffers).
+/// Small, self-contained seed files (.glb, or .gltf with embedded buffers), relative to the
+/// repository root.
 const SEEDS: &[&str] = &[
-    "assets/Box/glTF-Binary/Box.glb",
-    "assets/BoxTextured/glTF-Binary/BoxTextured.glb",
-    "assets/TextureCoordinateTest/glTF-Binary/TextureCoordinateTest.glb",
-    "assets/EmissiveStrengthTest/glTF-Binary/EmissiveStrengthTest.glb",
-    "scenes/cornell-box.gltf",
+    "tests/assets/Box/glTF-Binary/Box.glb",
+    "tests/assets/BoxTextured/glTF-Binary/BoxTextured.glb",
+    "tests/assets/TextureCoordinateTest/glTF-Binary/TextureCoordinateTest.glb",
+    "tests/assets/EmissiveStrengthTest/glTF-Binary/EmissiveStrengthTest.glb",
+    "assets/cornell-box.gltf",
 ];
 
 /// Loads, builds and samples a few pixels; errors are fine, panics are not.
@@ -217,7 +216,7 @@ fn inputs_that_once_crashed_the_loader_now_give_errors_or_images() {
 fn mutated_real_gltf_files_never_panic() {
     let cases = std::env::var("LUCENT_FUZZ_CASES").ok().and_then(|s| s.parse().ok()).unwrap_or(4000);
     for (k, seed) in SEEDS.iter().enumerate() {
-        let bytes = std::fs::read(common::shared().join(seed)).unwrap();
+        let bytes = std::fs::read(PathBuf::from(env!("CARGO_MANIFEST_DIR")).join(seed)).unwrap();
         let config = Config { cases, failure_persistence: None, ..Config::default() };
         let rng = TestRng::from_seed(RngAlgorithm::ChaCha, &[k as u8 + 1; 32]);
         let mut runner = TestRunner::new_with_rng(config, rng);

@@ -107,8 +107,8 @@ fn metal_rough_spheres_load_all_triangles_and_the_default_material() {
 }
 
 #[test]
-fn the_built_in_scene_is_the_shared_cornell_box() {
-    let file = gltf::load(&common::shared().join("scenes/cornell-box.gltf")).unwrap();
+fn the_built_in_scene_is_the_cornell_box_file() {
+    let file = gltf::load(&common::cornell_box_file()).unwrap();
     let builtin = builtin::cornell_box();
     assert_eq!(triangles(&file), triangles(&builtin));
     assert_eq!(triangles(&builtin), 32);
@@ -150,7 +150,7 @@ fn malformed_files_give_one_line_errors() {
             temp("truncated.glb", &bytes[..bytes.len() / 2])
         }),
         ("dangling accessor", {
-            let text = std::fs::read_to_string(common::shared().join("scenes/cornell-box.gltf")).unwrap();
+            let text = std::fs::read_to_string(common::cornell_box_file()).unwrap();
             let mut doc: Value = serde_json::from_str(&text).unwrap();
             doc["meshes"][0]["primitives"][0]["attributes"]["POSITION"] = json!(999);
             temp("dangling.gltf", &serde_json::to_vec(&doc).unwrap())

@@ -15,7 +15,7 @@ use lucent::scene::{
 use std::sync::Arc;
 
 fn glass_scene() -> Arc<Scene> {
-    let desc = gltf::load(&common::shared().join("scenes/cornell-box-glass.gltf")).unwrap();
+    let desc = gltf::load(&common::asset("cornell-box-glass.gltf")).unwrap();
     Arc::new(Scene::build(desc))
 }
 

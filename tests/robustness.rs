@@ -132,7 +132,7 @@ fn blocks(s: &Snapshot) -> Vec<(DVec3, DVec3)> {
 /// The Cornell box glTF under a new root node that scales it by `scale` and translates it
 /// by `offset` on every axis, as a file placing a model far from the origin would.
 fn cornell_placed(scale: f64, offset: f64) -> PathBuf {
-    let text = std::fs::read_to_string(common::shared().join("scenes/cornell-box.gltf")).unwrap();
+    let text = std::fs::read_to_string(common::cornell_box_file()).unwrap();
     let mut doc: serde_json::Value = serde_json::from_str(&text).unwrap();
     let children = doc["scenes"][0]["nodes"].clone();
     let nodes = doc["nodes"].as_array_mut().unwrap();

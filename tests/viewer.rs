@@ -7,6 +7,7 @@ use lucent::film::tonemap::Display;
 use lucent::integrator::{LightSampling, Settings};
 use lucent::loader::builtin;
 use lucent::scene::Scene;
+use lucent::scene::environment::{BUILT_IN, EnvSettings, Environment};
 use lucent::viewer::state::ViewerState;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -112,18 +113,45 @@ fn views_save_and_load() {
     assert_eq!(other.settings.max_depth, 11);
 }
 
+/// A tiny equirectangular map written as EXR (blue sky over brown ground).
+fn write_map(path: &Path) {
+    let data = (0..8).flat_map(|i| if i < 4 { [0.2, 0.4, 1.0] } else { [0.3, 0.2, 0.1] }).collect();
+    image::Rgb32FImage::from_raw(2, 4, data).unwrap().save(path).unwrap();
+}
+
 #[test]
-fn the_environment_picker_offers_the_shared_maps_and_keeps_the_map_while_tuning() {
+fn the_environment_picker_offers_the_built_in_map_the_start_map_and_a_folders_maps() {
+    // Started without a map: the built-in sky comes first, then the maps of the current folder.
     let mut state = viewer();
-    let venice = state
-        .environment_maps
-        .iter()
-        .find(|p| p.ends_with("venice_sunset_1k.hdr"))
-        .cloned()
-        .expect("the shared maps are offered");
+    assert_eq!(state.environment_maps.first().map(PathBuf::as_path), Some(Path::new(BUILT_IN)));
+    assert_eq!(state.environment_dir(), ".");
+    let dir = temp_dir("maps");
+    for file in ["b.exr", "a.hdr", "C.EXR", "notes.txt", "sky.png"] {
+        std::fs::write(dir.join(file), b"").unwrap();
+    }
+    state.set_environment_dir(dir.to_string_lossy().into_owned());
+    let files = [dir.join("C.EXR"), dir.join("a.hdr"), dir.join("b.exr")];
+    assert_eq!(state.environment_maps, [vec![PathBuf::from(BUILT_IN)], files.to_vec()].concat(), "rescanned");
+    // Started with a map: it is offered, once, and its folder is the one scanned.
+    let start = temp_dir("start");
+    let sky = start.join("sky.exr");
+    write_map(&sky);
+    let settings = EnvSettings { map: Some(sky.clone()), ..EnvSettings::default() };
+    let scene = Scene::build(builtin::cornell_box()).with_environment(Some(Environment::load(settings).unwrap()));
+    let settings = Settings { width: 48, height: 48, ..Settings::default() };
+    let mut state = ViewerState::new(scene, None, settings, true, Display::default(), None, Some(1)).unwrap();
+    assert_eq!(state.environment_dir(), start.to_string_lossy());
+    assert_eq!(state.environment_maps, [PathBuf::from(BUILT_IN), sky.clone()]);
+    state.set_environment_dir(dir.to_string_lossy().into_owned());
+    assert_eq!(state.environment_maps, [vec![PathBuf::from(BUILT_IN), sky], files.to_vec()].concat());
+}
+
+#[test]
+fn the_built_in_map_lights_the_scene_and_is_kept_while_tuning() {
+    let mut state = viewer();
     let geometry = Arc::clone(&state.scene.geometry);
     let mut env = state.environment.clone();
-    env.map = Some(venice);
+    env.map = Some(state.environment_maps[0].clone());
     state.set_environment(env.clone()).unwrap();
     assert!(state.scene.features.environment && state.sync(), "a map lights the scene and restarts");
     let map = Arc::clone(state.scene.environment.as_ref().unwrap().map().unwrap());
@@ -133,7 +161,7 @@ fn the_environment_picker_offers_the_shared_maps_and_keeps_the_map_while_tuning(
     let kept = state.scene.environment.as_ref().unwrap().map().unwrap();
     assert!(Arc::ptr_eq(&map, kept) && Arc::ptr_eq(&geometry, &state.scene.geometry), "nothing is reloaded");
     assert!(state.sync());
-    let bad = lucent::scene::environment::EnvSettings { map: Some("/no/such/sky.exr".into()), ..env.clone() };
+    let bad = EnvSettings { map: Some("/no/such/sky.exr".into()), ..env.clone() };
     let err = state.set_environment(bad).unwrap_err();
     assert!(err.contains("sky.exr") && !err.contains('\n'), "{err}");
     assert_eq!(state.environment, env, "the old environment stays");

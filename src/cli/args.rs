@@ -149,7 +149,8 @@ pub struct RenderOptions {
     #[arg(long, value_enum, value_delimiter = ',')]
     pub without: Vec<Mechanism>,
     /// Equirectangular environment map (.hdr or .exr) lighting the scene from outside
-    /// (+y up; the map's centre is seen looking along -z).
+    /// (+y up; the map's centre is seen looking along -z), or `built-in` for the sunset sky
+    /// embedded in the binary (Poly Haven's venice_sunset, 1024x512, CC0).
     #[arg(long)]
     pub env: Option<PathBuf>,
     /// Scale on the environment's radiance [default: 1].

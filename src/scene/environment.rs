@@ -1,6 +1,7 @@
-//! Light from infinitely far away: an equirectangular HDR map (.hdr or .exr) with intensity
-//! and rotation, or a uniform background colour. Map directions are importance-sampled by
-//! a 2D piecewise-constant density over the texels, in proportion to radiance x sin(theta).
+//! Light from infinitely far away: an equirectangular HDR map (.hdr or .exr, or the built-in
+//! sky) with intensity and rotation, or a uniform background colour. Map directions are
+//! importance-sampled by a 2D piecewise-constant density over the texels, in proportion to
+//! radiance x sin(theta).
 
 use crate::math::{distribution::Distribution2D, luminance, warp};
 use crate::spectrum::Spectrum;
@@ -14,8 +15,8 @@ use std::sync::Arc;
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct EnvSettings {
-    /// Equirectangular .hdr or .exr map (+y up, the map's centre seen along -z); None for
-    /// the uniform background.
+    /// Equirectangular .hdr or .exr map (+y up, the map's centre seen along -z), or
+    /// [`BUILT_IN`] for the embedded sky; None for the uniform background.
     pub map: Option<PathBuf>,
     /// Uniform background radiance (linear RGB), used without a map.
     pub background: Vec3,
@@ -52,6 +53,12 @@ impl EnvSettings {
     }
 }
 
+/// The map name that selects the sky embedded in the binary instead of a file.
+pub const BUILT_IN: &str = "built-in";
+
+/// The built-in sky: Poly Haven's venice_sunset, 1024 x 512 (CC0; see assets/README.md).
+const BUILT_IN_HDR: &[u8] = include_bytes!("../../assets/venice_sunset_1k.hdr");
+
 /// A loaded equirectangular map with its sampling density.
 pub struct EnvMap {
     width: usize,
@@ -63,10 +70,16 @@ pub struct EnvMap {
 }
 
 impl EnvMap {
-    /// Reads an equirectangular .hdr or .exr file; the error is one line.
+    /// Reads an equirectangular .hdr or .exr file, or the built-in sky if `path` is
+    /// [`BUILT_IN`]; the error is one line.
     pub fn load(path: &Path) -> Result<Self, String> {
         let fail = |e: &dyn std::fmt::Display| format!("cannot load environment {}: {e}", path.display());
-        let image = image::open(path).map_err(|e| fail(&e))?.into_rgb32f();
+        let image = if path == Path::new(BUILT_IN) {
+            image::load_from_memory_with_format(BUILT_IN_HDR, image::ImageFormat::Hdr)
+        } else {
+            image::open(path)
+        };
+        let image = image.map_err(|e| fail(&e))?.into_rgb32f();
         let (width, height) = (image.width() as usize, image.height() as usize);
         if width < 2 || height < 1 {
             return Err(fail(&"the map needs at least 2x1 texels"));

@@ -13,7 +13,7 @@ use crate::render::{Job, RenderSession, Snapshot};
 use crate::scene::{
     Scene,
     camera::Camera,
-    environment::{EnvMap, EnvSettings, Environment},
+    environment::{BUILT_IN, EnvMap, EnvSettings, Environment},
     light::PunctualLight,
     material::Material,
 };
@@ -26,9 +26,6 @@ use std::time::{Duration, Instant};
 
 /// Divisor of the resolution while the camera moves (a quick preview that keeps up).
 const PREVIEW_DIVISOR: u32 = 4;
-
-/// Where the viewer looks for environment maps to offer (the project's shared assets).
-pub const ENVIRONMENT_DIR: &str = "../shared/assets/environments";
 
 /// A scene being loaded on its own thread.
 struct Loading {
@@ -102,10 +99,13 @@ pub struct ViewerState {
     pub view_path: String,
     /// The environment lighting the scene (kept while it is black, to edit it).
     pub environment: EnvSettings,
-    /// Environment maps offered in the picker (found in `ENVIRONMENT_DIR`).
+    /// Environment maps offered in the picker besides none: the built-in sky, the map the
+    /// viewer started with, and the .hdr/.exr files in `environment_dir`.
     pub environment_maps: Vec<PathBuf>,
-    /// Path typed in the environment map field.
-    pub environment_path: String,
+    /// Folder whose maps the picker offers (change it with `set_environment_dir`).
+    environment_dir: String,
+    /// The map the viewer started with (--env or --view), if it is a file.
+    startup_map: Option<PathBuf>,
     /// The last map loaded, reused while only intensity, rotation or background change.
     environment_map: Option<(PathBuf, Arc<EnvMap>)>,
     loading: Option<Loading>,
@@ -137,6 +137,11 @@ impl ViewerState {
         let environment = scene.environment.as_ref().map_or_else(EnvSettings::default, |e| e.settings.clone());
         let environment_map =
             scene.environment.as_ref().and_then(|e| Some((e.settings.map.clone()?, e.map()?.clone())));
+        let startup_map = environment.map.clone().filter(|m| m != Path::new(BUILT_IN));
+        let environment_dir = match startup_map.as_deref().and_then(Path::parent) {
+            Some(dir) if !dir.as_os_str().is_empty() => dir.to_string_lossy().into_owned(),
+            _ => ".".into(),
+        };
         Ok(Self {
             original: (scene.materials.clone(), scene.lights.clone()),
             scene,
@@ -161,8 +166,9 @@ impl ViewerState {
             open_path: String::new(),
             view_path: "view.toml".into(),
             environment,
-            environment_maps: environment_maps(Path::new(ENVIRONMENT_DIR)),
-            environment_path: String::new(),
+            environment_maps: environment_maps(startup_map.as_deref(), Path::new(&environment_dir)),
+            environment_dir,
+            startup_map,
             environment_map,
             loading: None,
             restarted: Instant::now(),
@@ -334,6 +340,19 @@ impl ViewerState {
         Ok(())
     }
 
+    /// The folder whose .hdr and .exr files the picker offers.
+    pub fn environment_dir(&self) -> &str {
+        &self.environment_dir
+    }
+
+    /// Offers the maps in `dir` instead, rescanning if it changed.
+    pub fn set_environment_dir(&mut self, dir: String) {
+        if dir != self.environment_dir {
+            self.environment_maps = environment_maps(self.startup_map.as_deref(), Path::new(&dir));
+            self.environment_dir = dir;
+        }
+    }
+
     /// Restores the materials and lights as the file has them.
     pub fn reset_edits(&mut self) {
         let (m, l) = self.original.clone();
@@ -459,14 +478,22 @@ impl ViewerState {
     }
 }
 
-/// The .hdr and .exr files in `dir`, sorted (none if it does not exist).
-fn environment_maps(dir: &Path) -> Vec<PathBuf> {
-    let Ok(entries) = std::fs::read_dir(dir) else { return Vec::new() };
-    let mut maps: Vec<PathBuf> = entries
+/// The maps to offer: the built-in sky, `startup` (if any), then the .hdr and .exr files in
+/// `dir`, sorted (none if it cannot be read), each file once.
+fn environment_maps(startup: Option<&Path>, dir: &Path) -> Vec<PathBuf> {
+    let mut found: Vec<PathBuf> = std::fs::read_dir(dir)
+        .into_iter()
+        .flatten()
         .filter_map(|e| e.ok().map(|e| e.path()))
         .filter(|p| p.extension().is_some_and(|e| e.eq_ignore_ascii_case("hdr") || e.eq_ignore_ascii_case("exr")))
         .collect();
-    maps.sort();
+    found.sort();
+    let same = |a: &Path, b: &Path| {
+        a == b || std::fs::canonicalize(a).is_ok_and(|a| std::fs::canonicalize(b).is_ok_and(|b| a == b))
+    };
+    let mut maps = vec![PathBuf::from(BUILT_IN)];
+    maps.extend(startup.map(Path::to_path_buf));
+    maps.extend(found.into_iter().filter(|p| startup.is_none_or(|s| !same(s, p))));
     maps
 }
 

@@ -7,6 +7,7 @@ use crate::integrator::settings::DRT_RAY_BUDGET;
 use crate::integrator::{Integrator, Settings};
 use crate::params::{Domain, Group, Param, Value};
 use crate::render::Snapshot;
+use crate::scene::environment::BUILT_IN;
 use egui::{Color32, Key, PointerButton, Rect, Sense, Ui, pos2};
 use egui_plot::{GridMark, Legend, Line, Plot, log_grid_spacer};
 use glam::{UVec2, Vec2, Vec3};
@@ -288,21 +289,24 @@ fn camera(ui: &mut Ui, state: &mut ViewerState) {
 
 fn environment(ui: &mut Ui, state: &mut ViewerState) {
     let mut env = state.environment.clone();
-    let name =
-        |p: &std::path::Path| p.file_name().map_or_else(|| p.display().to_string(), |n| n.to_string_lossy().into());
+    let name = |p: &std::path::Path| match p.file_name() {
+        _ if p == std::path::Path::new(BUILT_IN) => "built-in: Venice sunset".into(),
+        Some(n) => n.to_string_lossy().into_owned(),
+        None => p.display().to_string(),
+    };
     let shown = env.map.as_deref().map_or("none: background colour".into(), name);
     egui::ComboBox::from_label("map").selected_text(shown).show_ui(ui, |ui| {
         ui.selectable_value(&mut env.map, None, "none: background colour");
         for path in &state.environment_maps {
-            ui.selectable_value(&mut env.map, Some(path.clone()), name(path));
+            ui.selectable_value(&mut env.map, Some(path.clone()), name(path)).on_hover_text(path.display().to_string());
         }
     });
+    let mut dir = state.environment_dir().to_owned();
     ui.horizontal(|ui| {
-        ui.text_edit_singleline(&mut state.environment_path).on_hover_text("an equirectangular .hdr or .exr file");
-        if ui.button("Load map").clicked() && !state.environment_path.trim().is_empty() {
-            env.map = Some(state.environment_path.trim().into());
-        }
+        ui.label("folder");
+        ui.text_edit_singleline(&mut dir).on_hover_text("its .hdr and .exr files are offered in the map list");
     });
+    state.set_environment_dir(dir);
     if env.map.is_none()
         && let Some(b) = colour_and_amount(ui, env.background, "background", 0.0..=100.0)
     {

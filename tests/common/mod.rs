@@ -1,5 +1,5 @@
-//! Helpers shared by the integration tests: paths to shared assets, rendering to a target,
-//! and statistical thresholds.
+//! Helpers shared by the integration tests: paths to the test assets, rendering to a
+//! target, and statistical thresholds.
 #![allow(dead_code)]
 
 use lucent::integrator::Settings;
@@ -9,14 +9,14 @@ use statrs::distribution::{ChiSquared, ContinuousCDF, Normal};
 use std::path::PathBuf;
 use std::sync::Arc;
 
-/// The shared folder beside the checkout (CI clones main with shared/ next to it).
-pub fn shared() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared")
+/// A file under tests/assets (see its INDEX.md).
+pub fn asset(rel: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/assets").join(rel)
 }
 
-/// A model under shared/assets.
-pub fn asset(rel: &str) -> PathBuf {
-    shared().join("assets").join(rel)
+/// The Cornell box glTF that the binary embeds as its built-in scene.
+pub fn cornell_box_file() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("assets/cornell-box.gltf")
 }
 
 /// Renders `scene` from `camera` to `settings.target_spp` on `threads` workers.
