@@ -27,7 +27,7 @@ impl ViewFile {
     pub fn load(path: &Path) -> Result<Self, String> {
         let fail = |e: &dyn std::fmt::Display| format!("cannot read view file {}: {e}", path.display());
         let text = std::fs::read_to_string(path).map_err(|e| fail(&e))?;
-        let view: ViewFile = toml::from_str(&text).map_err(|e| fail(&e.message().replace('\n', " ")))?;
+        let view: ViewFile = toml::from_str(&text).map_err(|e| fail(&toml_error(&text, &e)))?;
         view.settings.validate().map_err(|e| fail(&e))?;
         view.environment.validate().map_err(|e| fail(&e))?;
         if let Some(c) = view.camera
@@ -44,6 +44,15 @@ impl ViewFile {
         let text = toml::to_string_pretty(self).map_err(|e| fail(&e))?;
         replace_file(path, |tmp| std::fs::write(tmp, &text)).map_err(|e| e.to_string())
     }
+}
+
+/// A TOML error as one line, with the line and column (from 1, in characters) it was found at.
+pub fn toml_error(text: &str, e: &toml::de::Error) -> String {
+    let message = e.message().trim_end().replace('\n', " ");
+    let Some(before) = e.span().and_then(|span| text.get(..span.start)) else { return message };
+    let line = before.matches('\n').count() + 1;
+    let column = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
+    format!("line {line}, column {column}: {message}")
 }
 
 #[cfg(test)]
@@ -76,6 +85,10 @@ mod tests {
         std::fs::write(&path, "[settings]\nlight_sampling = \"sometimes\"\n").unwrap();
         let err = ViewFile::load(&path).unwrap_err();
         assert!(err.contains("v.toml") && !err.contains('\n'), "{err}");
+        assert!(err.contains("line 2, column 18: "), "where it failed: {err}");
+        std::fs::write(&path, "[display]\nexposure = 1.0\n  [camera\n").unwrap();
+        let err = ViewFile::load(&path).unwrap_err();
+        assert!(err.contains("line 3, column ") && !err.contains('\n'), "{err}");
         std::fs::write(&path, "[environment]\nintensity = -1.0\n").unwrap();
         assert!(ViewFile::load(&path).unwrap_err().contains("intensity"));
         std::fs::remove_dir_all(&dir).unwrap();
