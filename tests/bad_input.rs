@@ -4,12 +4,15 @@
 //! it really take, and within 2x of it (real scenes are not refused for nothing); that
 //! structurally mutated glTF files (accessor and sparse counts, views, indices, image
 //! sizes, node graphs, primitive counts) are refused or loaded within the memory limit and a
-//! time bound; and that the committed hostile inputs are refused for the reasons they deserve.
+//! time bound; that the committed hostile inputs are refused for the reasons they deserve;
+//! and that a render session's film estimate covers what a session allocates.
 
 mod common;
 
 use base64::Engine;
-use lucent::loader::{Limits, LoadError, gltf};
+use lucent::integrator::Settings;
+use lucent::loader::{Limits, LoadError, builtin, gltf};
+use lucent::render::{Job, RenderSession, SessionError, film_bytes};
 use lucent::scene::Scene;
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngAlgorithm, TestCaseError, TestRng, TestRunner};
@@ -18,7 +21,7 @@ use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering::Relaxed};
-use std::sync::{Mutex, MutexGuard, mpsc};
+use std::sync::{Arc, Mutex, MutexGuard, mpsc};
 use std::time::{Duration, Instant};
 
 /// Counts live heap bytes and their peak; realloc counts the change in size (glibc grows
@@ -470,6 +473,34 @@ fn the_committed_hostile_inputs_are_refused_for_their_reasons_within_little_memo
     }
     let sparse = gltf::load_slice_with_limits(&corpus("sparse-count-1e9.gltf"), "sparse", &limits);
     assert!(matches!(sparse, Err(LoadError::TooLarge { .. })), "{:?}", sparse.err());
+}
+
+// --- the film ---
+
+#[test]
+fn the_film_estimate_covers_what_a_session_allocates_and_refuses_a_film_over_the_limit() {
+    let _turn = serial();
+    let scene = Arc::new(Scene::build(builtin::cornell_box()));
+    let camera = scene.default_camera(1.0);
+    let settings = Settings { width: 320, height: 240, target_spp: Some(4), ..Settings::default() };
+    let job = || Job { scene: Arc::clone(&scene), camera, settings };
+    let limits = Limits { memory: film_bytes(320, 240) };
+    let (snapshot, peak) = peak_of(|| RenderSession::with_limits(job(), Some(2), limits).unwrap().wait_until_done());
+    assert_eq!(snapshot.spp, 4);
+    drop(snapshot);
+    let film = film_bytes(320, 240);
+    assert!(peak <= film + MB, "a session peaked at {peak} bytes, over its film estimate of {film} plus 1 MB");
+    assert!(peak >= film / 2, "the film estimate of {film} bytes is far above the peak of {peak}");
+
+    let too_small = Limits { memory: film - 1 };
+    let (refused, peak) = peak_of(|| RenderSession::with_limits(job(), Some(2), too_small).err());
+    let err = refused.expect("one byte short is refused");
+    assert!(matches!(err, SessionError::TooLarge { width: 320, height: 240, .. }), "{err}");
+    assert!(peak < MB, "refusing took {peak} bytes");
+    let big = Settings { width: 16384, height: 16384, ..settings };
+    let session = RenderSession::with_limits(job(), Some(1), Limits { memory: 12_000_000_000 }).unwrap();
+    let err = session.set_job(Job { settings: big, ..job() }).unwrap_err().to_string();
+    assert_eq!(err, "image too large: 16384x16384 needs about 28.0 GB for the film, over the memory limit of 12.0 GB");
 }
 
 // --- synthetic scenes ---
