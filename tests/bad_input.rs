@@ -420,8 +420,10 @@ fn structurally_mutated_files_are_refused_or_loaded_within_the_limit_and_in_time
     let _turn = serial();
     let seed_outcome = exercise(apply(1, &[]), FUZZ_LIMIT).unwrap();
     assert_eq!(seed_outcome.result, Ok(2), "the unmutated seed loads its quad");
-    let cases = std::env::var("LUCENT_FUZZ_CASES").ok().and_then(|s| s.parse().ok()).unwrap_or(600);
-    let config = Config { cases, failure_persistence: None, max_shrink_iters: 64, ..Config::default() };
+    let cases = std::env::var("LUCENT_FUZZ_CASES").ok().and_then(|s| s.parse().ok()).unwrap_or(1000);
+    // A hang costs CASE_TIME per shrinking step: shrinking stops after a minute.
+    let config =
+        Config { cases, failure_persistence: None, max_shrink_iters: 64, max_shrink_time: 60_000, ..Config::default() };
     let mut runner = TestRunner::new_with_rng(config, TestRng::from_seed(RngAlgorithm::ChaCha, &[7; 32]));
     let (refused, slowest, highest) = (Cell::new(0usize), Cell::new(Duration::ZERO), Cell::new(0u64));
     // Grids from one quad to 2 x 200^2 triangles straddle the limit with real (not
