@@ -27,7 +27,7 @@ impl ViewFile {
     pub fn load(path: &Path) -> Result<Self, String> {
         let fail = |e: &dyn std::fmt::Display| format!("cannot read view file {}: {e}", path.display());
         let text = std::fs::read_to_string(path).map_err(|e| fail(&e))?;
-        let view: ViewFile = toml::from_str(&text).map_err(|e| fail(&e.message().replace('\n', " ")))?;
+        let view: ViewFile = toml::from_str(&text).map_err(|e| fail(&crate::params::toml_error(&text, &e)))?;
         view.settings.validate().map_err(|e| fail(&e))?;
         view.environment.validate().map_err(|e| fail(&e))?;
         if let Some(c) = view.camera
@@ -76,6 +76,10 @@ mod tests {
         std::fs::write(&path, "[settings]\nlight_sampling = \"sometimes\"\n").unwrap();
         let err = ViewFile::load(&path).unwrap_err();
         assert!(err.contains("v.toml") && !err.contains('\n'), "{err}");
+        assert!(err.contains("line 2, column 18: "), "where it failed: {err}");
+        std::fs::write(&path, "[display]\nexposure = 1.0\n  [camera\n").unwrap();
+        let err = ViewFile::load(&path).unwrap_err();
+        assert!(err.contains("line 3, column ") && !err.contains('\n'), "{err}");
         std::fs::write(&path, "[environment]\nintensity = -1.0\n").unwrap();
         assert!(ViewFile::load(&path).unwrap_err().contains("intensity"));
         std::fs::remove_dir_all(&dir).unwrap();

@@ -3,6 +3,7 @@
 //! open scenes here; progress is reported as data, warnings stay in `Scene::warnings`.
 
 use crate::loader::{builtin, gltf};
+use crate::memory::Limits;
 use crate::scene::{
     Scene,
     environment::{EnvSettings, Environment},
@@ -25,6 +26,9 @@ pub enum Stage {
 pub struct OpenOptions {
     /// What lights the scene from outside.
     pub environment: EnvSettings,
+    /// The memory loading and building may take (default: half the machine's); a file that
+    /// would need more is refused before it is allocated ("scene too large: ...").
+    pub limits: Limits,
 }
 
 /// Opens the glTF file at `path` (None: the built-in Cornell box) lit by
@@ -38,7 +42,7 @@ pub fn open(path: Option<&Path>, options: &OpenOptions, progress: &mut dyn FnMut
     };
     progress(Stage::Reading);
     let desc = match path {
-        Some(p) => gltf::load(p).map_err(|e| e.to_string())?,
+        Some(p) => gltf::load_with_limits(p, &options.limits).map_err(|e| e.to_string())?,
         None => builtin::cornell_box(),
     };
     progress(Stage::Building);

@@ -187,6 +187,15 @@ pub fn validate<T>(table: &[Param<T>], settings: &T) -> Result<(), String> {
     Ok(())
 }
 
+/// A TOML error as one line, with the line and column (from 1, in characters) it was found at.
+pub fn toml_error(text: &str, e: &toml::de::Error) -> String {
+    let message = e.message().trim_end().replace('\n', " ");
+    let Some(before) = e.span().and_then(|span| text.get(..span.start)) else { return message };
+    let line = before.matches('\n').count() + 1;
+    let column = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
+    format!("line {line}, column {column}: {message}")
+}
+
 /// How a field's type maps to a `Value`.
 pub trait ParamType: Sized {
     /// The field as a value.

@@ -232,3 +232,21 @@ fn bsdf_sampling_light_sampling_and_mis_agree_under_an_hdr_sky() {
         assert!(mis[c].1 <= off[c].1.max(explicit[c].1), "MIS se {} vs {} / {}", mis[c].1, off[c].1, explicit[c].1);
     }
 }
+
+#[test]
+fn a_truncated_map_is_called_truncated_and_named() {
+    let bytes = std::fs::read(common::asset("environments/venice_sunset_1k.hdr")).unwrap();
+    let dir = std::env::temp_dir().join(format!("lucent-env-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("cut.hdr");
+    std::fs::write(&path, &bytes[..bytes.len() / 3]).unwrap();
+    let err =
+        Environment::load(EnvSettings { map: Some(path.clone()), ..EnvSettings::default() }).err().expect("refused");
+    let want = format!(
+        "cannot load environment {}: truncated: the file ends after {} bytes, before the 1024x512 texels its header announces",
+        path.display(),
+        bytes.len() / 3
+    );
+    assert_eq!(err, want);
+    std::fs::remove_dir_all(&dir).unwrap();
+}

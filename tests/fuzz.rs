@@ -7,7 +7,7 @@
 
 use glam::UVec2;
 use lucent::integrator::{Settings, sample_pixel};
-use lucent::loader::gltf;
+use lucent::loader::{Limits, gltf};
 use lucent::scene::Scene;
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
@@ -24,9 +24,13 @@ const SEEDS: &[&str] = &[
     "assets/cornell-box.gltf",
 ];
 
+/// The memory limit the fuzzer loads with, fixed so that the run does not depend on the
+/// machine's memory (the default limit is half of it).
+const LIMITS: Limits = Limits { memory: 1 << 30 };
+
 /// Loads, builds and samples a few pixels; errors are fine, panics are not.
 fn exercise(bytes: &[u8]) {
-    let Ok(desc) = gltf::load_slice(bytes, "fuzz") else { return };
+    let Ok(desc) = gltf::load_slice_with_limits(bytes, "fuzz", &LIMITS) else { return };
     let scene = Scene::build(desc);
     let settings = Settings { width: 4, height: 4, max_depth: 4, ..Settings::default() };
     let rays = scene.default_camera(1.0).rays(settings.width, settings.height);

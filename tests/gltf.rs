@@ -164,3 +164,58 @@ fn malformed_files_give_one_line_errors() {
         assert!(err.contains(&*path.to_string_lossy()), "{what}: names the file: {err}");
     }
 }
+
+#[test]
+fn bad_files_are_refused_in_the_users_words() {
+    let triangle = || -> Value { serde_json::from_slice(&one_triangle(json!({"mesh": 0}), [0, 1, 2])).unwrap() };
+    let with = |edit: &dyn Fn(&mut Value)| {
+        let mut doc = triangle();
+        edit(&mut doc);
+        serde_json::to_vec(&doc).unwrap()
+    };
+    let png = std::fs::read(common::asset("Cube/glTF/Cube_MetallicRoughness.png")).unwrap();
+    let cases: Vec<(&str, Vec<u8>, &str)> = vec![
+        ("empty.gltf", Vec::new(), "not a glTF or GLB file (the file is empty)"),
+        ("picture.gltf", png, "not a glTF or GLB file (neither JSON nor binary glTF)"),
+        ("object.gltf", b"{\"scenes\": []}".to_vec(), "not a glTF or GLB file (JSON, but missing field `asset`"),
+        (
+            "cut.gltf",
+            b"{\"asset\": {\"version\": \"2.0\"},\n\"scenes\": [".to_vec(),
+            "invalid JSON: EOF while parsing a list at line 2",
+        ),
+        (
+            "missing-buffer.gltf",
+            with(&|d| d["buffers"][0]["uri"] = json!("missing.bin")),
+            "buffer 0: cannot read missing.bin (no such file), named by ",
+        ),
+        (
+            "missing-image.gltf",
+            with(&|d| d["images"] = json!([{"uri": "missing.png"}])),
+            "image 0: cannot read missing.png (no such file), named by ",
+        ),
+        (
+            "device.gltf",
+            with(&|d| d["buffers"][0]["uri"] = json!("file:///dev/zero")),
+            "buffer 0: cannot read file:///dev/zero (not a regular file)",
+        ),
+        (
+            "short.gltf",
+            with(&|d| d["buffers"][0]["byteLength"] = json!(1000)),
+            "buffer 0 (a data URI) has 84 bytes, fewer than its byteLength of 1000",
+        ),
+        (
+            "no-count.gltf",
+            with(&|d| d["accessors"][2]["count"] = json!(0)),
+            "invalid glTF: accessors[2].count is 0 (at least 1 is required)",
+        ),
+    ];
+    for (name, bytes, want) in cases {
+        let path = temp(name, &bytes);
+        let err = gltf::load(&path).err().unwrap_or_else(|| panic!("{name}: loaded")).to_string();
+        assert!(err.contains(want), "{name}: {err}");
+        assert!(
+            err.contains(&*path.to_string_lossy()) && !err.contains('\n'),
+            "{name}: one line naming the file: {err}"
+        );
+    }
+}

@@ -8,16 +8,17 @@ use std::path::Path;
 /// Each module and what it may use (macros count as their module: `params!`, `choice_enum!`).
 const ALLOWED: &[(&str, &[&str])] = &[
     ("math", &[]),
+    ("memory", &[]),
     ("params", &[]),
     ("spectrum", &["math"]),
     ("bsdf", &["math", "spectrum"]),
     ("scene", &["math", "spectrum", "bsdf", "params"]),
-    ("loader", &["math", "spectrum", "bsdf", "scene"]),
+    ("loader", &["math", "memory", "params", "spectrum", "bsdf", "scene"]),
     ("integrator", &["math", "spectrum", "params", "bsdf", "scene"]),
-    ("film", &["math", "spectrum", "params"]),
-    ("render", &["math", "spectrum", "params", "scene", "integrator", "film"]),
-    ("config", &["math", "spectrum", "params", "scene", "integrator", "film"]),
-    ("open", &["math", "spectrum", "scene", "loader"]),
+    ("film", &["math", "memory", "spectrum", "params"]),
+    ("render", &["math", "memory", "spectrum", "params", "scene", "integrator", "film"]),
+    ("config", &["math", "memory", "spectrum", "params", "scene", "integrator", "film"]),
+    ("open", &["math", "memory", "spectrum", "scene", "loader"]),
     (
         "viewer",
         &["math", "spectrum", "params", "bsdf", "scene", "loader", "integrator", "film", "render", "config", "open"],

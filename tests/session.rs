@@ -1,11 +1,12 @@
 //! The render session: a new job bumps the generation, and no sample of the old job
-//! reaches the new image (it equals a fresh render of the new job, bit for bit).
+//! reaches the new image (it equals a fresh render of the new job, bit for bit); a job
+//! whose film would not fit in the memory limit is refused before it is allocated.
 
 mod common;
 
 use lucent::integrator::Settings;
-use lucent::loader::builtin;
-use lucent::render::{Job, RenderSession};
+use lucent::loader::{Limits, builtin};
+use lucent::render::{Job, RenderSession, SessionError};
 use lucent::scene::Scene;
 use std::sync::Arc;
 use std::time::Duration;
@@ -45,4 +46,24 @@ fn invalid_settings_are_refused() {
     ] {
         assert!(RenderSession::new(Job { scene: Arc::clone(&scene), camera, settings: bad }, None).is_err());
     }
+}
+
+#[test]
+fn a_film_over_the_memory_limit_is_refused_and_the_session_keeps_its_job() {
+    let scene = Arc::new(Scene::build(builtin::cornell_box()));
+    let camera = scene.default_camera(1.0);
+    let small = Settings { width: 64, height: 64, target_spp: Some(2), ..Settings::default() };
+    let limits = Limits { memory: 1 << 30 };
+    let session =
+        RenderSession::with_limits(Job { scene: Arc::clone(&scene), camera, settings: small }, Some(1), limits)
+            .unwrap();
+    let big = Settings { width: 4096, height: 4096, ..small };
+    let err = session.set_job(Job { scene: Arc::clone(&scene), camera, settings: big }).unwrap_err();
+    assert_eq!(
+        err.to_string(),
+        "image too large: 4096x4096 needs about 1.8 GB for the film, over the memory limit of 1.1 GB"
+    );
+    assert_eq!(session.wait_until_done().width, 64, "the refused job did not replace the running one");
+    let new = RenderSession::with_limits(Job { scene: Arc::clone(&scene), camera, settings: big }, Some(1), limits);
+    assert!(matches!(new, Err(SessionError::TooLarge { width: 4096, height: 4096, .. })));
 }

@@ -35,7 +35,10 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         let per_pixel = target.map_or(String::new(), |n| format!(", {:.3e} per pixel at {n} spp", rays * n as f64));
         eprintln!("distribution ray tracing: up to {rays:.3e} rays per sample{per_pixel}");
     }
-    let scene = Arc::new(open_scene(args.scene.as_deref(), &OpenOptions { environment: view.environment.clone() })?);
+    let scene = Arc::new(open_scene(
+        args.scene.as_deref(),
+        &OpenOptions { environment: view.environment.clone(), ..OpenOptions::default() },
+    )?);
     let camera = match args.options.camera {
         Some(i) => scene.file_camera(i).map_err(|e| format!("--{e}"))?,
         None => view.camera.unwrap_or_else(|| scene.default_camera(settings.width as f32 / settings.height as f32)),

@@ -88,6 +88,13 @@ impl Film {
         Self { width, height, tiles }
     }
 
+    /// Bytes `Film::new(width, height)` allocates at most: pixel sums and tiles (listed with slack).
+    pub fn bytes(width: u32, height: u32) -> u64 {
+        let pixels = width as u64 * height as u64;
+        let tiles = width.div_ceil(TILE_SIZE) as u64 * height.div_ceil(TILE_SIZE) as u64;
+        pixels * std::mem::size_of::<PixelSums>() as u64 + 2 * tiles * std::mem::size_of::<Tile>() as u64
+    }
+
     /// Applies `f(x, y, sums)` to every pixel.
     fn for_each_pixel(&self, mut f: impl FnMut(u32, u32, &PixelSums)) {
         for tile in &self.tiles {

@@ -3,8 +3,15 @@
 //! and cameras. Anything not supported yet is reported once as a warning, never dropped silently.
 //! Transforms are composed in f64 and everything is stored relative to the centre of the
 //! scene's bounds, so a model placed far from the origin keeps its f32 precision.
+//!
+//! Before anything large is allocated, what the scene will take is estimated from the
+//! file's counts (accessors, images' headers, how often the node hierarchy places each
+//! mesh) and checked against `Limits`: a small file cannot make the loader allocate far
+//! beyond what it and its images need.
 
-use super::LoadError;
+use super::limits::{self, Attributes, Limits, PrimitiveShape, format_bytes};
+use super::resources::{self, Encoded, Tally};
+use super::{LoadError, Refusal, graph};
 use crate::scene::{
     MeshDesc, SceneDesc,
     camera::Camera,
@@ -14,8 +21,9 @@ use crate::scene::{
 };
 use glam::{Affine2, DMat3, DMat4, DVec3, Vec2, Vec3, Vec4};
 use gltf::json::Value;
-use gltf::{Document, Semantic, buffer, image, khr_lights_punctual::Kind, mesh::Mode, texture::WrappingMode};
-use std::collections::BTreeSet;
+use gltf::{Document, Semantic, buffer, khr_lights_punctual::Kind, mesh::Mode, texture::WrappingMode};
+use image::DynamicImage;
+use std::collections::{BTreeSet, HashMap, HashSet};
 use std::path::Path;
 
 /// Extensions whose every part that matters to shading is honoured.
@@ -32,40 +40,139 @@ const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_xmp",
 ];
 
-/// Deepest node hierarchy accepted (guards against cyclic or absurd files).
-const MAX_NODE_DEPTH: usize = 256;
-
-/// Loads a .gltf or .glb file.
+/// Loads a .gltf or .glb file within the machine's default `Limits`.
 pub fn load(path: &Path) -> Result<SceneDesc, LoadError> {
+    load_with_limits(path, &Limits::default())
+}
+
+/// Loads a .gltf or .glb file, refusing (`LoadError::TooLarge`) one whose load and build would exceed `limits`.
+pub fn load_with_limits(path: &Path, limits: &Limits) -> Result<SceneDesc, LoadError> {
     let fail = |reason: String| LoadError::File { path: path.to_owned(), reason };
     if !path.is_file() {
         return Err(fail(if path.exists() { "not a file".into() } else { "no such file".into() }));
     }
+    let size = std::fs::metadata(path).map_err(|e| fail(e.to_string()))?.len();
+    if size > limits.memory {
+        let reason =
+            format!("the file is {}, over the memory limit of {}", format_bytes(size), format_bytes(limits.memory));
+        return Err(LoadError::TooLarge { path: path.to_owned(), reason });
+    }
     let bytes = std::fs::read(path).map_err(|e| fail(e.to_string()))?;
-    let (doc, buffers, images) = import(&bytes, path.parent()).map_err(fail)?;
+    let (doc, buffers, images) = import(&bytes, path.parent(), limits).map_err(|r| r.at(path))?;
     let name = path.file_stem().map_or("scene".into(), |s| s.to_string_lossy().into_owned());
     let mut desc = convert(&doc, &buffers, images, name).map_err(&fail)?;
     super::sidecar::apply(&mut desc, path).map_err(fail)?;
     Ok(desc)
 }
 
-/// Loads glTF from memory (embedded or GLB buffers only).
+/// Loads glTF from memory (embedded or GLB buffers only) within the machine's default `Limits`.
 pub fn load_slice(bytes: &[u8], name: &str) -> Result<SceneDesc, LoadError> {
-    let fail = |reason: String| LoadError::File { path: name.into(), reason };
-    let (doc, buffers, images) = import(bytes, None).map_err(fail)?;
-    convert(&doc, &buffers, images, name.into()).map_err(fail)
+    load_slice_with_limits(bytes, name, &Limits::default())
 }
 
-/// Parses, validates and reads buffers and images (relative to `base`, if given).
-fn import(bytes: &[u8], base: Option<&Path>) -> Result<(Document, Vec<buffer::Data>, Vec<image::Data>), String> {
-    let gltf::Gltf { document, blob } = gltf::Gltf::from_slice_without_validation(bytes).map_err(|e| describe(&e))?;
+/// Loads glTF from memory (embedded or GLB buffers only) within `limits`, naming it `name` in errors.
+pub fn load_slice_with_limits(bytes: &[u8], name: &str, limits: &Limits) -> Result<SceneDesc, LoadError> {
+    let (doc, buffers, images) = import(bytes, None, limits).map_err(|r| r.at(Path::new(name)))?;
+    convert(&doc, &buffers, images, name.into()).map_err(|reason| LoadError::File { path: name.into(), reason })
+}
+
+/// Bytes that loading and building the file would take at the peak (what `load_with_limits` checks).
+///
+/// Worked out without decoding images or converting geometry; a figure over the limit is
+/// returned, not refused, while invalid files and files too large to read are refused as
+/// `load_with_limits` refuses them.
+pub fn estimate(path: &Path, limits: &Limits) -> Result<u64, LoadError> {
+    let bytes = std::fs::read(path).map_err(|e| LoadError::File { path: path.to_owned(), reason: e.to_string() })?;
+    let mut read = read(&bytes, path.parent(), limits).map_err(|r| r.at(path))?;
+    let encoded = resources::image_headers(&read.document, path.parent(), &read.buffers, &mut read.tally)
+        .map_err(|r| r.at(path))?;
+    read.estimate.add_images(&encoded);
+    Ok(read.estimate.total)
+}
+
+/// Parses and validates, reads buffers and image headers (relative to `base`, if given),
+/// checks what the scene will take against `limits`, then decodes the images.
+fn import(
+    bytes: &[u8],
+    base: Option<&Path>,
+    limits: &Limits,
+) -> Result<(Document, Vec<buffer::Data>, Vec<Image>), Refusal> {
+    let mut read = read(bytes, base, limits)?;
+    let encoded = resources::image_headers(&read.document, base, &read.buffers, &mut read.tally)?;
+    read.estimate.add_images(&encoded);
+    read.estimate.check(limits.memory)?;
+    let mut images = Vec::with_capacity(encoded.len());
+    for image in encoded {
+        images.push(convert_image(resources::decode(image, limits.memory)?));
+    }
+    Ok((read.document, read.buffers, images))
+}
+
+/// A parsed and checked file with its buffers, before its images are read.
+struct Read {
+    document: Document,
+    buffers: Vec<buffer::Data>,
+    /// What the file, its parsed JSON and its buffers hold, counted against the limit.
+    tally: Tally,
+    /// The estimate, without the images yet.
+    estimate: Estimate,
+}
+
+/// Parses and validates `bytes`, checks the node hierarchy, reads the buffers and checks
+/// every placed primitive's accessors, each step refusing what would not fit in `limits`.
+fn read(bytes: &[u8], base: Option<&Path>, limits: &Limits) -> Result<Read, Refusal> {
+    let parsed = limits::parsed_json(json_text(bytes));
+    let mut tally = Tally { used: (bytes.len() as u64).saturating_add(parsed), limit: limits.memory };
+    if tally.used > limits.memory {
+        return Err(Refusal::TooLarge(format!(
+            "the file is {} and its JSON takes about {} once parsed, over the memory limit of {}",
+            format_bytes(bytes.len() as u64),
+            format_bytes(parsed),
+            format_bytes(limits.memory)
+        )));
+    }
+    let gltf::Gltf { document, blob } = parse(bytes)?;
     check_position_accessors(&document)?;
     let document = Document::from_json(document.into_json()).map_err(|e| describe(&e))?;
     check_image_sources(&document)?;
-    let buffers = gltf::import_buffers(&document, base, blob).map_err(|e| describe(&e))?;
+    let roots: Vec<usize> = document
+        .default_scene()
+        .or_else(|| document.scenes().next())
+        .map_or_else(Vec::new, |s| s.nodes().map(|n| n.index()).collect());
+    let placements = graph::placements(&document, &roots)?;
+    tally.used = tally.used.saturating_add(blob.as_ref().map_or(0, |b| b.len() as u64));
+    let buffers = resources::buffers(&document, base, blob, &mut tally)?;
     check_buffer_views(&document, &buffers)?;
-    let images = gltf::import_images(&document, base, &buffers).map_err(|e| describe(&e))?;
-    Ok((document, buffers, images))
+    let placed = check_primitives(&document, &buffers, &placements)?;
+    let estimate = Estimate::new(&document, tally.used, bytes.len() as u64, &placed, &placements);
+    Ok(Read { document, buffers, tally, estimate })
+}
+
+/// The JSON text of a .gltf, or of a GLB's first chunk (the whole input if it is neither).
+fn json_text(bytes: &[u8]) -> &[u8] {
+    let chunk = bytes.get(12..16).map(|l| u32::from_le_bytes([l[0], l[1], l[2], l[3]]) as usize);
+    match chunk {
+        Some(len) if bytes.starts_with(b"glTF") => bytes.get(20..).map_or(&[][..], |rest| &rest[..len.min(rest.len())]),
+        _ => bytes,
+    }
+}
+
+/// The gltf crate's parse, with "not a glTF or GLB file" for input that is neither a GLB
+/// (magic "glTF") nor a JSON object, or is JSON but not glTF.
+fn parse(bytes: &[u8]) -> Result<gltf::Gltf, Refusal> {
+    let text = bytes.strip_prefix("\u{feff}".as_bytes()).unwrap_or(bytes);
+    let json_object = text.iter().find(|b| !b.is_ascii_whitespace()) == Some(&b'{');
+    if !bytes.starts_with(b"glTF") && !json_object {
+        let what = if bytes.is_empty() { "the file is empty" } else { "neither JSON nor binary glTF" };
+        return Err(Refusal::Invalid(format!("not a glTF or GLB file ({what})")));
+    }
+    gltf::Gltf::from_slice_without_validation(bytes).map_err(|e| match e {
+        gltf::Error::Deserialize(e) if serde_json::from_slice::<serde::de::IgnoredAny>(bytes).is_ok() => {
+            Refusal::Invalid(format!("not a glTF or GLB file (JSON, but {e})"))
+        }
+        gltf::Error::Deserialize(e) => Refusal::Invalid(format!("invalid JSON: {e}")),
+        e => Refusal::Invalid(describe(&e)),
+    })
 }
 
 /// Rejects a POSITION attribute naming a missing accessor: gltf-json 1.4.1's validation
@@ -113,6 +220,222 @@ fn check_buffer_views(document: &Document, buffers: &[buffer::Data]) -> Result<(
     Ok(())
 }
 
+/// A primitive the flattening will convert, with how many copies the hierarchy places.
+struct Placed {
+    /// "meshes[m].primitives[p]", for messages.
+    name: String,
+    /// Copies placed.
+    copies: u64,
+    /// What one copy takes.
+    shape: PrimitiveShape,
+    /// The largest sparse accessor it reads, if any: index, count and type.
+    sparse: Option<(usize, u64, gltf::accessor::Dimensions)>,
+}
+
+/// Checks the accessors of every primitive that the scene places (inside their buffers,
+/// of types the spec allows, one count for all vertex attributes) and says what each
+/// will take; `placements` is how often each node is placed.
+fn check_primitives(doc: &Document, buffers: &[buffer::Data], placements: &[u64]) -> Result<Vec<Placed>, String> {
+    let mut copies = vec![0u64; doc.meshes().len()];
+    for node in doc.nodes() {
+        if let Some(m) = node.mesh() {
+            copies[m.index()] = copies[m.index()].saturating_add(placements[node.index()]);
+        }
+    }
+    let mut placed = Vec::new();
+    for mesh in doc.meshes().filter(|m| copies[m.index()] > 0) {
+        for prim in mesh.primitives() {
+            let name_bytes = mesh.name().map_or(4, str::len) as u64;
+            if let Some((shape, sparse)) = primitive_shape(&prim, name_bytes, buffers)? {
+                let name = format!("meshes[{}].primitives[{}]", mesh.index(), prim.index());
+                placed.push(Placed { name, copies: copies[mesh.index()], shape, sparse });
+            }
+        }
+    }
+    Ok(placed)
+}
+
+/// A sparse accessor read by a primitive: index, count, type.
+type Sparse = (usize, u64, gltf::accessor::Dimensions);
+
+/// What converting one copy of a primitive (of a mesh whose name has `name` bytes) takes,
+/// once its accessors are checked; None for a primitive that is skipped (not triangles, or
+/// without POSITION).
+fn primitive_shape(
+    prim: &gltf::Primitive,
+    name: u64,
+    buffers: &[buffer::Data],
+) -> Result<Option<(PrimitiveShape, Option<Sparse>)>, String> {
+    let mode = prim.mode();
+    if !matches!(mode, Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan) {
+        return Ok(None);
+    }
+    for (semantic, accessor) in prim.attributes() {
+        check_accessor(&accessor, buffers)?;
+        check_attribute_type(&semantic, &accessor)?;
+    }
+    let indices = prim.indices();
+    if let Some(i) = &indices {
+        check_accessor(i, buffers)?;
+        check_attribute_type(&Semantic::Weights(u32::MAX), i)?;
+    }
+    let Some(positions) = prim.get(&Semantic::Positions) else { return Ok(None) };
+    let normal_mapped = prim.material().normal_texture().is_some();
+    let normals = prim.get(&Semantic::Normals);
+    let uvs = prim.get(&Semantic::TexCoords(0));
+    let uvs1 = prim.get(&Semantic::TexCoords(1));
+    let colors = prim.get(&Semantic::Colors(0));
+    let tangents = prim.get(&Semantic::Tangents).filter(|_| normal_mapped);
+    let read: Vec<&gltf::Accessor> =
+        [Some(&positions), normals.as_ref(), uvs.as_ref(), uvs1.as_ref(), colors.as_ref(), tangents.as_ref()]
+            .into_iter()
+            .flatten()
+            .collect();
+    let vertices = positions.count();
+    if read.iter().any(|a| a.count() != vertices) {
+        return Err("vertex attributes of one primitive have different counts".into());
+    }
+    let index_count = indices.as_ref().map_or(vertices, |i| i.count()) as u64;
+    let triangles = if mode == Mode::Triangles { index_count / 3 } else { index_count.saturating_sub(2) };
+    let generates_tangents = normal_mapped && tangents.is_none() && uvs.is_some();
+    let attributes = Attributes {
+        normals: normals.is_some(),
+        uvs: uvs.is_some(),
+        uvs1: uvs1.is_some(),
+        colors: colors.is_some(),
+        tangents: tangents.is_some() || generates_tangents,
+    };
+    let shape = PrimitiveShape {
+        vertices: vertices as u64,
+        indices: index_count,
+        triangles,
+        attributes,
+        generates_tangents,
+        name,
+    };
+    let sparse = read
+        .into_iter()
+        .chain(indices.as_ref())
+        .filter(|a| a.sparse().is_some())
+        .max_by_key(|a| a.count())
+        .map(|a| (a.index(), a.count() as u64, a.dimensions()));
+    Ok(Some((shape, sparse)))
+}
+
+/// An accessor type as glTF spells it.
+fn type_name(d: gltf::accessor::Dimensions) -> &'static str {
+    use gltf::accessor::Dimensions as D;
+    match d {
+        D::Scalar => "SCALAR",
+        D::Vec2 => "VEC2",
+        D::Vec3 => "VEC3",
+        D::Vec4 => "VEC4",
+        D::Mat2 => "MAT2",
+        D::Mat3 => "MAT3",
+        D::Mat4 => "MAT4",
+    }
+}
+
+/// What loading a scene takes at its peak, worked out from counts before the large
+/// allocations: the largest of decoding the images, flattening the hierarchy and building
+/// the scene, each with what is alive at the time (see `limits` for the per-item costs).
+struct Estimate {
+    /// What the bytes go to, for the message: a description and its bytes.
+    parts: Vec<(String, u64)>,
+    /// The file, its parsed JSON and its buffers, held until the scene description is made.
+    read: u64,
+    /// The file alone (held by the caller of `load_slice` throughout).
+    file: u64,
+    /// Flattening, beyond `read` and the textures: the placed copies, the largest
+    /// conversion's temporaries, and the lights and cameras.
+    flattening: u64,
+    /// Building, beyond the file and the textures: the scene description and the built scene.
+    building: u64,
+    /// Bytes at the peak, once the images are added.
+    total: u64,
+}
+
+impl Estimate {
+    /// `read` is what the file, its parsed JSON and its buffers hold, `file` the file alone;
+    /// `placements` counts each node's copies.
+    fn new(doc: &Document, read: u64, file: u64, placed: &[Placed], placements: &[u64]) -> Self {
+        let mut parts = vec![("the file, its parsed JSON and its buffers".to_owned(), read)];
+        let any_extra =
+            placed.iter().any(|p| p.shape.attributes.uvs1 || p.shape.attributes.colors || p.shape.attributes.tangents);
+        let emissive = doc.materials().any(|m| m.emissive_factor().iter().any(|&e| e != 0.0));
+        let per_triangle = limits::TRIANGLE
+            + if any_extra { limits::TRIANGLE_EXTRA } else { 0 }
+            + if emissive { limits::EMISSIVE_TRIANGLE } else { 0 };
+        let (mut converting, mut transient, mut described) = (0u64, 0u64, 0u64);
+        for p in placed {
+            let triangles = p.copies.saturating_mul(p.shape.triangles);
+            let scene =
+                p.copies.saturating_mul(p.shape.described()).saturating_add(triangles.saturating_mul(per_triangle));
+            converting = converting.saturating_add(p.copies.saturating_mul(p.shape.converting()));
+            transient = transient.max(p.shape.transient());
+            described = described.saturating_add(scene);
+            let vertices = p.copies.saturating_mul(p.shape.vertices);
+            let mut what = match p.copies {
+                1 => format!("{}: {vertices} vertices and {triangles} triangles", p.name),
+                n => format!("{} is placed {n} times: {vertices} vertices and {triangles} triangles in all", p.name),
+            };
+            if let Some((a, count, dims)) = p.sparse {
+                what += &format!(
+                    ", read from accessors[{a}] (sparse), which expands to {count} {} elements",
+                    type_name(dims)
+                );
+            }
+            parts.push((what, scene));
+        }
+        let payload = doc
+            .nodes()
+            .map(|n| {
+                let names = n
+                    .light()
+                    .map(|l| l.name().map_or(5, str::len))
+                    .into_iter()
+                    .chain(n.camera().map(|c| c.name().map_or(6, str::len)));
+                let bytes: u64 = names.map(|len| limits::NODE_PAYLOAD + len as u64).sum();
+                placements[n.index()].saturating_mul(bytes)
+            })
+            .fold(0u64, u64::saturating_add);
+        parts.push(("the lights and cameras the nodes place".to_owned(), payload));
+        let materials = (doc.materials().len() as u64 + 1) * limits::MATERIAL;
+        let flattening = converting.saturating_add(transient).saturating_add(payload);
+        let building = described.saturating_add(payload).saturating_add(materials);
+        Self { parts, read, file, flattening, building, total: 0 }
+    }
+
+    /// Adds the images (their encoded bytes, decoding one at a time, and the textures kept)
+    /// and works out the total.
+    fn add_images(&mut self, images: &[Encoded]) {
+        let texel_bytes = |i: &Encoded| (i.width as u64).saturating_mul(i.height as u64).saturating_mul(limits::TEXEL);
+        let textures = images.iter().map(texel_bytes).fold(0u64, u64::saturating_add);
+        let encoded = images.iter().map(Encoded::held).fold(0u64, u64::saturating_add);
+        let decoded = images.iter().map(|i| limits::decoding(i.decoded)).max().unwrap_or(0);
+        for i in images {
+            let what = format!("{} is {}x{}, decoding to {}", i.name, i.width, i.height, format_bytes(i.decoded));
+            self.parts.push((what, i.decoded.saturating_add(texel_bytes(i))));
+        }
+        let sum = |xs: &[u64]| xs.iter().fold(0u64, |a, &x| a.saturating_add(x));
+        let decoding = sum(&[self.read, encoded, textures, decoded]);
+        let flattening = sum(&[self.read, textures, self.flattening]);
+        let building = sum(&[self.file, textures, self.building]);
+        self.total = decoding.max(flattening).max(building).saturating_add(limits::OVERHEAD);
+    }
+
+    /// Refuses the scene if its peak is over `limit`, naming the largest part.
+    fn check(&self, limit: u64) -> Result<(), Refusal> {
+        if self.total <= limit {
+            return Ok(());
+        }
+        let (what, bytes) = self.parts.iter().max_by_key(|(_, b)| *b).expect("the file is always a part");
+        let (part, total) = (format_bytes(*bytes), format_bytes(self.total));
+        let all = if part == total { String::new() } else { format!("; the scene needs about {total} in all") };
+        Err(Refusal::TooLarge(format!("{what}: about {part}{all}, over the memory limit of {}", format_bytes(limit))))
+    }
+}
+
 /// One line for a gltf error (validation errors list only the first).
 fn describe(e: &gltf::Error) -> String {
     match e {
@@ -137,12 +460,7 @@ impl Warnings {
     }
 }
 
-fn convert(
-    doc: &Document,
-    buffers: &[buffer::Data],
-    images: Vec<image::Data>,
-    name: String,
-) -> Result<SceneDesc, String> {
+fn convert(doc: &Document, buffers: &[buffer::Data], images: Vec<Image>, name: String) -> Result<SceneDesc, String> {
     let mut warnings = Warnings::default();
     for ext in doc.extensions_used() {
         if !SUPPORTED_EXTENSIONS.contains(&ext) {
@@ -150,7 +468,7 @@ fn convert(
         }
     }
     let mut desc = SceneDesc { name, ..SceneDesc::default() };
-    desc.images = images.into_iter().map(convert_image).collect();
+    desc.images = images;
     desc.textures = doc.textures().map(convert_texture).collect();
     let texture_count = desc.textures.len();
     desc.materials = doc.materials().map(|m| convert_material(&m, texture_count, &mut warnings)).collect();
@@ -167,14 +485,24 @@ fn convert(
     let mut placed: Vec<(MeshDesc, Vec<DVec3>)> = Vec::new();
     let mut lights: Vec<(PunctualLight, DVec3)> = Vec::new();
     let mut cameras: Vec<(String, Camera, DVec3)> = Vec::new();
-    let mut stack: Vec<(gltf::Node, DMat4, usize)> = scene.nodes().map(|n| (n, DMat4::IDENTITY, 0)).collect();
-    while let Some((node, parent, depth)) = stack.pop() {
-        if depth > MAX_NODE_DEPTH {
-            return Err(format!("node hierarchy deeper than {MAX_NODE_DEPTH} (cyclic?)"));
-        }
+    let geometry = primitive_geometry(doc);
+    let mut seen = HashSet::new();
+    let mut coincident = 0u64;
+    // import has checked that the hierarchy has no cycle and flattens to few enough copies.
+    let mut stack: Vec<(gltf::Node, DMat4)> = scene.nodes().map(|n| (n, DMat4::IDENTITY)).collect();
+    while let Some((node, parent)) = stack.pop() {
         let world = parent * DMat4::from_cols_array_2d(&node.transform().matrix().map(|c| c.map(f64::from)));
         if let Some(mesh) = node.mesh() {
             for prim in mesh.primitives() {
+                // A copy of geometry already placed with the same transform only doubles
+                // triangles exactly: it is placed once. (Many coincident triangles also
+                // defeat obvhs's PLOC builder, which breaks ties towards the farthest
+                // neighbour: n equal boxes take O(n^2) time and an n-deep tree.)
+                let bits = world.to_cols_array().map(f64::to_bits);
+                if !seen.insert((geometry[mesh.index()][prim.index()], bits)) {
+                    coincident += 1;
+                    continue;
+                }
                 let normal_mapped = prim.material().normal_texture().is_some();
                 if let Some((m, p)) =
                     convert_primitive(&prim, buffers, world, default_material, normal_mapped, &mut warnings)?
@@ -198,7 +526,12 @@ fn convert(
                 }
             }
         }
-        stack.extend(node.children().map(|c| (c, world, depth + 1)));
+        stack.extend(node.children().map(|c| (c, world)));
+    }
+    if coincident > 0 {
+        warnings.add(format!(
+            "{coincident} placed primitives repeat geometry already placed with the same transform: placed once"
+        ));
     }
     let bounds = placed
         .iter()
@@ -219,34 +552,45 @@ fn convert(
     Ok(desc)
 }
 
-fn convert_image(data: image::Data) -> Image {
-    use image::Format as F;
-    let (w, h) = (data.width, data.height);
-    let px = &data.pixels;
-    let n = (w * h) as usize;
-    let u16_at = |i: usize| (u16::from_le_bytes([px[2 * i], px[2 * i + 1]]) >> 8) as u8;
-    let f32_at = |i: usize| {
-        let v = f32::from_le_bytes([px[4 * i], px[4 * i + 1], px[4 * i + 2], px[4 * i + 3]]);
-        (v.clamp(0.0, 1.0) * 255.0 + 0.5) as u8
-    };
-    let texels = (0..n)
-        .map(|i| match data.format {
-            F::R8 => [px[i], px[i], px[i], 255],
-            F::R8G8 => [px[2 * i], px[2 * i + 1], 0, 255],
-            F::R8G8B8 => [px[3 * i], px[3 * i + 1], px[3 * i + 2], 255],
-            F::R8G8B8A8 => [px[4 * i], px[4 * i + 1], px[4 * i + 2], px[4 * i + 3]],
-            F::R16 => {
-                let v = u16_at(i);
-                [v, v, v, 255]
-            }
-            F::R16G16 => [u16_at(2 * i), u16_at(2 * i + 1), 0, 255],
-            F::R16G16B16 => [u16_at(3 * i), u16_at(3 * i + 1), u16_at(3 * i + 2), 255],
-            F::R16G16B16A16 => [u16_at(4 * i), u16_at(4 * i + 1), u16_at(4 * i + 2), u16_at(4 * i + 3)],
-            F::R32G32B32FLOAT => [f32_at(3 * i), f32_at(3 * i + 1), f32_at(3 * i + 2), 255],
-            F::R32G32B32A32FLOAT => [f32_at(4 * i), f32_at(4 * i + 1), f32_at(4 * i + 2), f32_at(4 * i + 3)],
+/// For each mesh's primitives, an id shared by primitives that read the same accessors
+/// with the same mode and material (and so place the same triangles).
+fn primitive_geometry(doc: &Document) -> Vec<Vec<usize>> {
+    let mut ids = HashMap::new();
+    doc.meshes()
+        .map(|m| {
+            m.primitives()
+                .map(|p| {
+                    let mut attributes: Vec<(String, usize)> =
+                        p.attributes().map(|(s, a)| (s.to_string(), a.index())).collect();
+                    attributes.sort();
+                    let key = (p.mode().as_gl_enum(), p.material().index(), p.indices().map(|a| a.index()), attributes);
+                    let next = ids.len();
+                    *ids.entry(key).or_insert(next)
+                })
+                .collect()
         })
-        .collect();
-    Image { width: w, height: h, texels }
+        .collect()
+}
+
+/// A decoded image as RGBA8 texels: 16-bit channels keep their high byte, float channels
+/// are clamped to [0, 1], grey is replicated, and grey-alpha fills red and green.
+fn convert_image(image: DynamicImage) -> Image {
+    let (width, height) = (image.width(), image.height());
+    let high = |v: u16| (v >> 8) as u8;
+    let unit = |v: f32| (v.clamp(0.0, 1.0) * 255.0 + 0.5) as u8;
+    let texels = match image {
+        DynamicImage::ImageLuma8(b) => b.pixels().map(|p| [p[0], p[0], p[0], 255]).collect(),
+        DynamicImage::ImageLumaA8(b) => b.pixels().map(|p| [p[0], p[1], 0, 255]).collect(),
+        DynamicImage::ImageRgb8(b) => b.pixels().map(|p| [p[0], p[1], p[2], 255]).collect(),
+        DynamicImage::ImageLuma16(b) => b.pixels().map(|p| [high(p[0]), high(p[0]), high(p[0]), 255]).collect(),
+        DynamicImage::ImageLumaA16(b) => b.pixels().map(|p| [high(p[0]), high(p[1]), 0, 255]).collect(),
+        DynamicImage::ImageRgb16(b) => b.pixels().map(|p| [high(p[0]), high(p[1]), high(p[2]), 255]).collect(),
+        DynamicImage::ImageRgba16(b) => b.pixels().map(|p| p.0.map(high)).collect(),
+        DynamicImage::ImageRgb32F(b) => b.pixels().map(|p| [unit(p[0]), unit(p[1]), unit(p[2]), 255]).collect(),
+        DynamicImage::ImageRgba32F(b) => b.pixels().map(|p| p.0.map(unit)).collect(),
+        other => other.into_rgba8().pixels().map(|p| p.0).collect(),
+    };
+    Image { width, height, texels }
 }
 
 fn convert_texture(t: gltf::Texture) -> Texture {
@@ -413,7 +757,10 @@ fn sanitise(m: &mut Material) {
     }
 }
 
-/// Checks that an accessor's bytes lie inside its buffer, so reading cannot go out of range.
+/// Checks that an accessor has at least one element (glTF 2.0, 5.1: count >= 1, and so for
+/// sparse.count) and that its bytes, and its sparse indices' and values', lie inside their
+/// buffer views and buffers, so that reading cannot go out of range. Sizes are compared in
+/// u128, so no count or offset in the file can overflow them.
 fn check_accessor(a: &gltf::Accessor, buffers: &[buffer::Data]) -> Result<(), String> {
     let check_view = |view: &gltf::buffer::View, offset: usize, count: usize, size: usize| {
         let stride = view.stride().unwrap_or(size);
@@ -423,17 +770,23 @@ fn check_accessor(a: &gltf::Accessor, buffers: &[buffer::Data]) -> Result<(), St
                 a.index()
             ));
         }
-        let needed = if count == 0 { 0 } else { offset + stride * (count - 1) + size };
+        let needed = offset as u128 + stride as u128 * (count as u128 - 1) + size as u128;
         let buffer_len = buffers.get(view.buffer().index()).map_or(0, |b| b.len());
-        if needed > view.length() || view.offset() + view.length() > buffer_len {
+        if needed > view.length() as u128 || view.offset() as u128 + view.length() as u128 > buffer_len as u128 {
             return Err(format!("accessor {} reaches past the end of its buffer", a.index()));
         }
         Ok(())
     };
+    if a.count() == 0 {
+        return Err(format!("invalid glTF: accessors[{}].count is 0 (at least 1 is required)", a.index()));
+    }
     if let Some(view) = a.view() {
         check_view(&view, a.offset(), a.count(), a.size())?;
     }
     if let Some(sparse) = a.sparse() {
+        if sparse.count() == 0 {
+            return Err(format!("invalid glTF: accessors[{}].sparse.count is 0 (at least 1 is required)", a.index()));
+        }
         let (idx, val) = (sparse.indices(), sparse.values());
         check_view(&idx.view(), idx.offset(), sparse.count(), idx.index_type().size())?;
         check_view(&val.view(), val.offset(), sparse.count(), a.size())?;
@@ -475,14 +828,7 @@ fn convert_primitive(
         warnings.add(format!("primitives of mode {mode:?} are not rendered"));
         return Ok(None);
     }
-    for (semantic, accessor) in prim.attributes() {
-        check_accessor(&accessor, buffers)?;
-        check_attribute_type(&semantic, &accessor)?;
-    }
-    if let Some(i) = prim.indices() {
-        check_accessor(&i, buffers)?;
-        check_attribute_type(&Semantic::Weights(u32::MAX), &i)?;
-    }
+    // check_primitives has checked the accessors and that the attributes' counts agree.
     let reader = prim.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
     let Some(positions) = reader.read_positions() else {
         warnings.add("a primitive without POSITION was skipped");
@@ -516,15 +862,6 @@ fn convert_primitive(
     };
     if let Some(bad) = raw.iter().find(|&&i| i as usize >= n) {
         return Err(format!("index {bad} is out of range for a primitive with {n} vertices"));
-    }
-    let counts_differ = |len: Option<usize>| len.is_some_and(|l| l != n);
-    if counts_differ(normals.as_ref().map(Vec::len))
-        || counts_differ(uvs.as_ref().map(Vec::len))
-        || counts_differ(uvs1.as_ref().map(Vec::len))
-        || counts_differ(colors.as_ref().map(Vec::len))
-        || counts_differ(tangents.as_ref().map(Vec::len))
-    {
-        return Err("vertex attributes of one primitive have different counts".into());
     }
     let mut indices = triangulate(mode, &raw);
     if world.determinant() < 0.0 {

@@ -2,4 +2,4 @@
 
 mod session;
 
-pub use session::{Job, RenderSession, Snapshot};
+pub use session::{Job, RenderSession, SessionError, Snapshot, film_bytes};

@@ -4,6 +4,7 @@
 
 use crate::film::{Film, Tile};
 use crate::integrator::{Settings, sample_pixel, settings::InvalidSettings};
+use crate::memory::{Limits, format_bytes};
 use crate::scene::{Scene, camera::Camera, camera::RayGenerator};
 use glam::{UVec2, Vec3};
 use rayon::prelude::*;
@@ -97,6 +98,38 @@ impl Snapshot {
     }
 }
 
+/// Why a session cannot take a job; its `Display` is one line.
+#[derive(Debug, thiserror::Error)]
+pub enum SessionError {
+    /// A setting is out of range, or the workers could not start.
+    #[error(transparent)]
+    Settings(#[from] InvalidSettings),
+    /// The film and the snapshots the session keeps would exceed the memory limit.
+    #[error(
+        "image too large: {width}x{height} needs about {} for the film, over the memory limit of {}",
+        format_bytes(*bytes),
+        format_bytes(*limit)
+    )]
+    TooLarge {
+        /// Width in pixels.
+        width: u32,
+        /// Height in pixels.
+        height: u32,
+        /// Bytes the film would take (`film_bytes`).
+        bytes: u64,
+        /// The limit.
+        limit: u64,
+    },
+}
+
+/// Bytes a session holds for a `width` x `height` film: the film and two snapshots' mean and variance.
+///
+/// The snapshot last published stays while the next one is built from the film.
+pub fn film_bytes(width: u32, height: u32) -> u64 {
+    let snapshot = 2 * width as u64 * height as u64 * std::mem::size_of::<Vec3>() as u64;
+    Film::bytes(width, height) + 2 * snapshot
+}
+
 struct Pending {
     job: Job,
     generation: u64,
@@ -127,23 +160,29 @@ impl Shared {
 pub struct RenderSession {
     shared: Arc<Shared>,
     thread: Option<JoinHandle<()>>,
+    limits: Limits,
 }
 
 impl RenderSession {
-    /// Starts rendering `job` on `threads` workers (None: one per core).
-    pub fn new(job: Job, threads: Option<usize>) -> Result<Self, InvalidSettings> {
-        Self::start(job, threads, false)
+    /// Starts rendering `job` on `threads` workers (None: one per core) within the default `Limits`.
+    pub fn new(job: Job, threads: Option<usize>) -> Result<Self, SessionError> {
+        Self::start(job, threads, false, Limits::default())
     }
 
     /// Like `new`, but the workers run at the lowest OS priority, so that an interactive UI
     /// on the same cores (and a software rasteriser) always gets the CPU first; the workers
     /// still take every idle cycle.
-    pub fn new_yielding(job: Job, threads: Option<usize>) -> Result<Self, InvalidSettings> {
-        Self::start(job, threads, true)
+    pub fn new_yielding(job: Job, threads: Option<usize>) -> Result<Self, SessionError> {
+        Self::start(job, threads, true, Limits::default())
     }
 
-    fn start(job: Job, threads: Option<usize>, yielding: bool) -> Result<Self, InvalidSettings> {
-        job.settings.validate()?;
+    /// Like `new`, refusing this job and later ones whose film (`film_bytes`) exceeds `limits`.
+    pub fn with_limits(job: Job, threads: Option<usize>, limits: Limits) -> Result<Self, SessionError> {
+        Self::start(job, threads, false, limits)
+    }
+
+    fn start(job: Job, threads: Option<usize>, yielding: bool, limits: Limits) -> Result<Self, SessionError> {
+        check_job(&job, &limits)?;
         let shared = Arc::new(Shared {
             generation: AtomicU64::new(0),
             state: Mutex::new(State::default()),
@@ -166,15 +205,15 @@ impl RenderSession {
             .name("lucent-session".into())
             .spawn(move || coordinate(&worker_shared, &pool))
             .map_err(|e| InvalidSettings(format!("cannot start the session thread: {e}")))?;
-        let session = Self { shared, thread: Some(thread) };
+        let session = Self { shared, thread: Some(thread), limits };
         session.set_job(job)?;
         Ok(session)
     }
 
     /// Replaces the job: in-flight work is dropped and accumulation restarts at once.
     /// Returns the new generation.
-    pub fn set_job(&self, job: Job) -> Result<u64, InvalidSettings> {
-        job.settings.validate()?;
+    pub fn set_job(&self, job: Job) -> Result<u64, SessionError> {
+        check_job(&job, &self.limits)?;
         let mut state = self.shared.lock();
         let generation = self.shared.generation.fetch_add(1, Ordering::SeqCst) + 1;
         state.pending = Some(Pending { job, generation });
@@ -247,6 +286,17 @@ impl Drop for RenderSession {
             let _ = t.join();
         }
     }
+}
+
+/// Checks the job's settings, and that its film fits in the memory limit before it is allocated.
+fn check_job(job: &Job, limits: &Limits) -> Result<(), SessionError> {
+    job.settings.validate()?;
+    let (width, height) = (job.settings.width, job.settings.height);
+    let bytes = film_bytes(width, height);
+    if bytes > limits.memory {
+        return Err(SessionError::TooLarge { width, height, bytes, limit: limits.memory });
+    }
+    Ok(())
 }
 
 /// The generation being rendered and its film.

@@ -79,7 +79,7 @@ impl EnvMap {
         } else {
             image::open(path)
         };
-        let image = image.map_err(|e| fail(&e))?.into_rgb32f();
+        let image = image.map_err(|e| fail(&image_error(path, e)))?.into_rgb32f();
         let (width, height) = (image.width() as usize, image.height() as usize);
         if width < 2 || height < 1 {
             return Err(fail(&"the map needs at least 2x1 texels"));
@@ -135,6 +135,27 @@ impl EnvMap {
         let top = self.texel(x0, y0) * (1.0 - fx) + self.texel(x0 + 1, y0) * fx;
         let bottom = self.texel(x0, y0 + 1) * (1.0 - fx) + self.texel(x0 + 1, y0 + 1) * fx;
         top * (1.0 - fy) + bottom * fy
+    }
+}
+
+/// One line for a map that cannot be decoded; one that ends before its texels do is
+/// called truncated, with its size and the size its header announces.
+fn image_error(path: &Path, e: image::ImageError) -> String {
+    match e {
+        image::ImageError::IoError(io) if io.kind() == std::io::ErrorKind::UnexpectedEof => {
+            let size = std::fs::metadata(path).map_or(0, |m| m.len());
+            let header = image::ImageReader::open(path)
+                .and_then(|r| r.with_guessed_format())
+                .ok()
+                .and_then(|r| r.into_dimensions().ok());
+            match header {
+                Some((w, h)) => format!(
+                    "truncated: the file ends after {size} bytes, before the {w}x{h} texels its header announces"
+                ),
+                None => format!("truncated: the file ends after {size} bytes"),
+            }
+        }
+        e => e.to_string().replace('\n', " "),
     }
 }
 

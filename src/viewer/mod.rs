@@ -51,7 +51,11 @@ pub struct Launch {
 /// Opens the viewer; with a screenshot path, renders to the target spp, saves and exits.
 pub fn run(launch: Launch) -> Result<(), String> {
     let Launch { scene: path, view, file_camera, fixed_size, threads, screenshot } = launch;
-    let scene = open(path.as_deref(), &OpenOptions { environment: view.environment.clone() }, &mut |_| {})?;
+    let scene = open(
+        path.as_deref(),
+        &OpenOptions { environment: view.environment.clone(), ..OpenOptions::default() },
+        &mut |_| {},
+    )?;
     for w in &scene.warnings {
         eprintln!("warning: {w}");
     }

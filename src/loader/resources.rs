@@ -1,0 +1,183 @@
+//! The buffers and images a glTF file names (a GLB's BIN chunk, data URIs, files beside
+//! it), read with their sizes known before anything large is allocated, and errors that
+//! say which one failed and why. Files are read only if they are regular files that fit
+//! in the memory limit: a URI naming /dev/zero or a 20 GB file is refused, not read.
+
+use super::Refusal;
+use super::limits::format_bytes;
+use gltf::{Document, buffer};
+use image::{DynamicImage, ImageDecoder, ImageFormat, ImageReader};
+use std::borrow::Cow;
+use std::io::{Cursor, Read};
+use std::path::{Path, PathBuf};
+
+/// Memory counted so far against a limit.
+pub struct Tally {
+    /// Bytes counted.
+    pub used: u64,
+    /// The limit.
+    pub limit: u64,
+}
+
+impl Tally {
+    /// Room left under the limit.
+    fn room(&self) -> u64 {
+        self.limit.saturating_sub(self.used)
+    }
+}
+
+/// A URI as messages show it (data URIs are long).
+fn shown(uri: &str) -> String {
+    if uri.starts_with("data:") { "a data URI".into() } else { uri.into() }
+}
+
+/// One line for an I/O error.
+fn io_reason(e: &std::io::Error) -> String {
+    match e.kind() {
+        std::io::ErrorKind::NotFound => "no such file".into(),
+        _ => e.to_string(),
+    }
+}
+
+/// The bytes of a data URI, a `file:` URI or a path relative to `base` (percent-decoded,
+/// as glTF URIs are); files must be regular and fit in the room left under the limit.
+/// `what` names the resource in errors ("buffer 0").
+fn read_uri(what: &str, uri: &str, base: Option<&Path>, tally: &Tally) -> Result<Vec<u8>, Refusal> {
+    let fail = |reason: String| Refusal::Resource(what.into(), shown(uri), reason);
+    if uri.starts_with("data:") {
+        // Decoded in memory from the file's own text, so no larger than it.
+        return buffer::Data::from_source(buffer::Source::Uri(uri), None)
+            .map(|d| d.0)
+            .map_err(|e| fail(e.to_string().replace('\n', " ")));
+    }
+    let path = match uri.strip_prefix("file://").or_else(|| uri.strip_prefix("file:")) {
+        Some(rest) => PathBuf::from(rest),
+        None if uri.contains(':') => return Err(fail("unsupported URI scheme".into())),
+        None => {
+            let decoded = urlencoding::decode(uri).map_err(|_| fail("percent-decodes to invalid UTF-8".into()))?;
+            base.ok_or_else(|| fail("a file loaded from memory cannot name other files".into()))?.join(&*decoded)
+        }
+    };
+    let meta = std::fs::metadata(&path).map_err(|e| fail(io_reason(&e)))?;
+    if !meta.is_file() {
+        return Err(fail("not a regular file".into()));
+    }
+    if meta.len() > tally.room() {
+        return Err(Refusal::TooLarge(format!(
+            "{what} ({uri}) is {}, so loading needs at least {}, over the memory limit of {}",
+            format_bytes(meta.len()),
+            format_bytes(tally.used.saturating_add(meta.len())),
+            format_bytes(tally.limit)
+        )));
+    }
+    let mut data = Vec::with_capacity(meta.len() as usize);
+    std::fs::File::open(&path)
+        .and_then(|f| f.take(meta.len()).read_to_end(&mut data))
+        .map_err(|e| fail(io_reason(&e)))?;
+    Ok(data)
+}
+
+/// Reads every buffer of the document, counting each in `tally`: the GLB's BIN chunk
+/// (`blob`), data URIs and files (relative to `base`). Each must hold at least its
+/// byteLength (glTF 2.0, 5.10).
+pub fn buffers(
+    doc: &Document,
+    base: Option<&Path>,
+    mut blob: Option<Vec<u8>>,
+    tally: &mut Tally,
+) -> Result<Vec<buffer::Data>, Refusal> {
+    let mut out = Vec::new();
+    for b in doc.buffers() {
+        let what = format!("buffer {}", b.index());
+        let (mut data, name) = match b.source() {
+            buffer::Source::Bin => match blob.take() {
+                Some(d) => (d, "the GLB's BIN chunk".to_owned()),
+                None => return Err(Refusal::Invalid(format!("{what}: the file has no GLB BIN chunk for it"))),
+            },
+            buffer::Source::Uri(uri) => (read_uri(&what, uri, base, tally)?, shown(uri)),
+        };
+        if data.len() < b.length() {
+            return Err(Refusal::Invalid(format!(
+                "{what} ({name}) has {} bytes, fewer than its byteLength of {}",
+                data.len(),
+                b.length()
+            )));
+        }
+        data.resize(data.len().next_multiple_of(4), 0);
+        tally.used = tally.used.saturating_add(data.len() as u64);
+        out.push(buffer::Data(data));
+    }
+    Ok(out)
+}
+
+/// An image's encoded bytes and what its header says decoding will produce.
+pub struct Encoded<'a> {
+    /// "image 2 (tex.png)", for messages.
+    pub name: String,
+    bytes: Cow<'a, [u8]>,
+    format: ImageFormat,
+    /// Width in texels.
+    pub width: u32,
+    /// Height in texels.
+    pub height: u32,
+    /// Bytes of the decoded image (width x height x channels x bytes per channel).
+    pub decoded: u64,
+}
+
+impl Encoded<'_> {
+    /// Bytes held for the encoded data itself (none when it is a slice of a buffer).
+    pub fn held(&self) -> u64 {
+        match &self.bytes {
+            Cow::Owned(b) => b.len() as u64,
+            Cow::Borrowed(_) => 0,
+        }
+    }
+}
+
+/// Reads every image's encoded bytes (counted in `tally`) and its PNG or JPEG header, without
+/// decoding: the header gives the size the decoder will allocate.
+pub fn image_headers<'a>(
+    doc: &Document,
+    base: Option<&Path>,
+    buffers: &'a [buffer::Data],
+    tally: &mut Tally,
+) -> Result<Vec<Encoded<'a>>, Refusal> {
+    let mut out = Vec::new();
+    for image in doc.images() {
+        let what = format!("image {}", image.index());
+        let (bytes, name): (Cow<[u8]>, String) = match image.source() {
+            gltf::image::Source::View { view, .. } => {
+                // check_buffer_views has checked that the view lies inside its buffer.
+                let data = &buffers[view.buffer().index()][view.offset()..view.offset() + view.length()];
+                (Cow::Borrowed(data), format!("{what} (bufferView {})", view.index()))
+            }
+            gltf::image::Source::Uri { uri, .. } => {
+                let data = read_uri(&what, uri, base, tally)?;
+                tally.used = tally.used.saturating_add(data.len() as u64);
+                (Cow::Owned(data), format!("{what} ({})", shown(uri)))
+            }
+        };
+        let header = |e: &dyn std::fmt::Display| Refusal::Invalid(format!("{name}: {e}"));
+        let mut reader = ImageReader::new(Cursor::new(&*bytes)).with_guessed_format().map_err(|e| header(&e))?;
+        let format = match reader.format() {
+            Some(f @ (ImageFormat::Png | ImageFormat::Jpeg)) => f,
+            _ => return Err(header(&"not a PNG or JPEG image (glTF 2.0, 3.9.3)")),
+        };
+        reader.no_limits();
+        let decoder = reader.into_decoder().map_err(|e| header(&e.to_string().replace('\n', " ")))?;
+        let (width, height) = decoder.dimensions();
+        let decoded = decoder.total_bytes();
+        drop(decoder);
+        out.push(Encoded { name, bytes, format, width, height, decoded });
+    }
+    Ok(out)
+}
+
+/// Decodes an image whose header was read, allowing the decoder `max_alloc` bytes.
+pub fn decode(image: Encoded, max_alloc: u64) -> Result<DynamicImage, Refusal> {
+    let mut reader = ImageReader::with_format(Cursor::new(&*image.bytes), image.format);
+    let mut limits = image::Limits::no_limits();
+    limits.max_alloc = Some(max_alloc);
+    reader.limits(limits);
+    reader.decode().map_err(|e| Refusal::Invalid(format!("{}: {}", image.name, e.to_string().replace('\n', " "))))
+}

@@ -1,0 +1,631 @@
+//! Bad input is refused, never panics and never allocates without bound. A counting global
+//! allocator (wrapping System) tracks the peak of live heap bytes, so that these tests can
+//! check: that the loader's estimate of a scene's peak is above what loading and building
+//! it really take, and within 2x of it (real scenes are not refused for nothing); that
+//! structurally mutated glTF files (accessor and sparse counts, views, indices, image
+//! sizes, node graphs, primitive counts) are refused or loaded within the memory limit and a
+//! time bound; that the committed hostile inputs are refused for the reasons they deserve;
+//! and that a render session's film estimate covers what a session allocates.
+
+mod common;
+
+use base64::Engine;
+use lucent::integrator::Settings;
+use lucent::loader::{Limits, LoadError, builtin, gltf};
+use lucent::render::{Job, RenderSession, SessionError, film_bytes};
+use lucent::scene::Scene;
+use proptest::prelude::*;
+use proptest::test_runner::{Config, RngAlgorithm, TestCaseError, TestRng, TestRunner};
+use serde_json::{Value, json};
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicUsize, Ordering::Relaxed};
+use std::sync::{Arc, Mutex, MutexGuard, mpsc};
+use std::time::{Duration, Instant};
+
+/// Counts live heap bytes and their peak; realloc counts the change in size (glibc grows
+/// large blocks in place with mremap).
+struct Counting;
+
+static LIVE: AtomicUsize = AtomicUsize::new(0);
+static PEAK: AtomicUsize = AtomicUsize::new(0);
+
+fn grew(n: usize) {
+    let now = LIVE.fetch_add(n, Relaxed) + n;
+    PEAK.fetch_max(now, Relaxed);
+}
+
+// SAFETY: every call is passed to System unchanged; only the counters are updated.
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        let p = unsafe { System.alloc(layout) };
+        if !p.is_null() {
+            grew(layout.size());
+        }
+        p
+    }
+
+    unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
+        let p = unsafe { System.alloc_zeroed(layout) };
+        if !p.is_null() {
+            grew(layout.size());
+        }
+        p
+    }
+
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        unsafe { System.dealloc(ptr, layout) };
+        LIVE.fetch_sub(layout.size(), Relaxed);
+    }
+
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        let p = unsafe { System.realloc(ptr, layout, new_size) };
+        if !p.is_null() {
+            if new_size >= layout.size() {
+                grew(new_size - layout.size());
+            } else {
+                LIVE.fetch_sub(layout.size() - new_size, Relaxed);
+            }
+        }
+        p
+    }
+}
+
+#[global_allocator]
+static ALLOCATOR: Counting = Counting;
+
+/// The counters are global: tests that measure take turns.
+static SERIAL: Mutex<()> = Mutex::new(());
+
+fn serial() -> MutexGuard<'static, ()> {
+    SERIAL.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+/// Runs `f`; returns its result and the peak of live bytes above those live when it started.
+fn peak_of<T>(f: impl FnOnce() -> T) -> (T, u64) {
+    let start = LIVE.load(Relaxed);
+    PEAK.store(start, Relaxed);
+    let out = f();
+    (out, PEAK.load(Relaxed).saturating_sub(start) as u64)
+}
+
+const MB: u64 = 1_000_000;
+
+#[test]
+fn the_estimate_covers_what_loading_and_building_take_and_is_not_far_above() {
+    let _turn = serial();
+    let models = [
+        "Box/glTF-Binary/Box.glb",
+        "BoxTextured/glTF-Binary/BoxTextured.glb",
+        "Cube/glTF/Cube.gltf",
+        "MetalRoughSpheresNoTextures/glTF-Binary/MetalRoughSpheresNoTextures.glb",
+        "NormalTangentTest/glTF-Binary/NormalTangentTest.glb",
+        "NormalTangentMirrorTest/glTF-Binary/NormalTangentMirrorTest.glb",
+        "DamagedHelmet/glTF-Binary/DamagedHelmet.glb",
+        "WaterBottle/glTF/WaterBottle.gltf",
+        "LightsPunctualLamp/glTF/LightsPunctualLamp.gltf",
+        "AttenuationTest/glTF-Binary/AttenuationTest.glb",
+        "EmissiveStrengthTest/glTF-Binary/EmissiveStrengthTest.glb",
+    ];
+    let generous = Limits { memory: 1 << 40 };
+    let mut files: Vec<(String, PathBuf)> = models.iter().map(|m| (m.to_string(), common::asset(m))).collect();
+    let dir = temp_dir("estimate");
+    for (name, doc) in [
+        ("grid-320k.gltf", Grid { n: 400, ..Grid::default() }.file()),
+        ("grid-normal-mapped-100k.gltf", Grid { n: 224, normal_mapped: true, ..Grid::default() }.file()),
+        ("grid-strip-100k.gltf", Grid { n: 224, strips: true, ..Grid::default() }.file()),
+        ("grid-emissive-100k.gltf", Grid { n: 224, emissive: true, ..Grid::default() }.file()),
+    ] {
+        let path = dir.join(name);
+        std::fs::write(&path, doc).unwrap();
+        files.push((name.into(), path));
+    }
+    for (name, path) in files {
+        let estimate = gltf::estimate(&path, &generous).unwrap_or_else(|e| panic!("{name}: {e}"));
+        let limits = Limits { memory: estimate };
+        let (scene, peak) =
+            peak_of(|| Scene::build(gltf::load_with_limits(&path, &limits).unwrap_or_else(|e| panic!("{name}: {e}"))));
+        let triangles = scene.geometry.len();
+        drop(scene);
+        eprintln!(
+            "{name}: {triangles} triangles, estimate {estimate}, peak {peak}, ratio {:.2}",
+            estimate as f64 / peak as f64
+        );
+        assert!(
+            peak <= estimate,
+            "{name}: loading and building peaked at {peak} bytes, over the estimate of {estimate}"
+        );
+        assert!(
+            estimate <= 2 * peak + 2 * MB,
+            "{name}: the estimate of {estimate} bytes is over twice the peak of {peak}"
+        );
+    }
+}
+
+#[test]
+fn a_limit_below_the_estimate_refuses_the_scene_before_it_is_allocated() {
+    let _turn = serial();
+    let path = common::asset("MetalRoughSpheresNoTextures/glTF-Binary/MetalRoughSpheresNoTextures.glb");
+    let estimate = gltf::estimate(&path, &Limits { memory: 1 << 40 }).unwrap();
+    let limits = Limits { memory: estimate - 1 };
+    let (result, peak) = peak_of(|| gltf::load_with_limits(&path, &limits));
+    let err = result.err().expect("one byte below the estimate is refused").to_string();
+    assert!(err.starts_with("scene too large: ") && !err.contains('\n'), "{err}");
+    assert!(err.contains("triangles") && err.contains("over the memory limit of"), "says how much and why: {err}");
+    assert!(peak < estimate / 4, "refused after {peak} bytes, near the estimate of {estimate}");
+}
+
+// --- the structural fuzzer ---
+
+/// Appends little-endian f32s.
+fn put_f32(buffer: &mut Vec<u8>, values: &[f32]) {
+    values.iter().for_each(|v| buffer.extend_from_slice(&v.to_le_bytes()));
+}
+
+/// A 2x2 RGBA8 PNG.
+fn tiny_png() -> Vec<u8> {
+    let mut out = std::io::Cursor::new(Vec::new());
+    image::RgbaImage::from_pixel(2, 2, image::Rgba([128, 128, 255, 255]))
+        .write_to(&mut out, image::ImageFormat::Png)
+        .unwrap();
+    out.into_inner()
+}
+
+/// The glTF file: the document with its buffer as a data URI.
+fn encode(mut doc: Value, buffer: &[u8]) -> Vec<u8> {
+    let uri = base64::engine::general_purpose::STANDARD.encode(buffer);
+    doc["buffers"][0]["uri"] = Value::from(format!("data:application/octet-stream;base64,{uri}"));
+    serde_json::to_vec(&doc).unwrap()
+}
+
+/// CRC-32 (ISO-HDLC, as PNG chunks use).
+fn crc32(bytes: &[u8]) -> u32 {
+    let mut crc = !0u32;
+    for &b in bytes {
+        crc ^= b as u32;
+        for _ in 0..8 {
+            crc = if crc & 1 == 1 { (crc >> 1) ^ 0xedb8_8320 } else { crc >> 1 };
+        }
+    }
+    !crc
+}
+
+#[derive(Clone, Debug)]
+enum Mutation {
+    /// Sets an accessor's count.
+    Count { accessor: usize, count: u64 },
+    /// Makes the vertex attributes' accessors (or the indices') sparse over the spare
+    /// sparse views with one new count, maybe without views of their own.
+    Sparse { indices: bool, count: u64, sparse_count: u64, keep_view: bool },
+    /// Sets a bufferView's byteLength (0), byteOffset (1) or byteStride (2).
+    View { view: usize, field: usize, value: u64 },
+    /// Sets the buffer's byteLength.
+    BufferLength { value: u64 },
+    /// Overwrites one of the indices.
+    Index { at: usize, value: u32 },
+    /// Rewrites the PNG's header: size, bit depth and colour type (the CRC kept valid).
+    ImageSize { width: u32, height: u32, format: usize },
+    /// Replaces a node's children (cycles and self-references included).
+    Children { node: usize, children: Vec<usize> },
+    /// Adds a root above `levels` nodes, each naming the next `fan_out` times, over the mesh's node.
+    Dag { levels: usize, fan_out: usize },
+    /// Adds a root chain of `length` nodes over the mesh's node.
+    Chain { length: usize },
+    /// Repeats the mesh's primitive.
+    Primitives { count: usize },
+    /// Places the mesh from `count` more root nodes.
+    Instances { count: usize },
+    /// Sets the primitive's mode.
+    Mode { mode: u64 },
+}
+
+/// Counts from small to absurd.
+fn count() -> impl Strategy<Value = u64> {
+    prop_oneof![
+        0u64..8,
+        prop::sample::select(vec![
+            100u64,
+            1000,
+            50_000,
+            200_000,
+            400_000,
+            1_000_000,
+            100_000_000,
+            1_000_000_000,
+            1 << 32,
+            1 << 40,
+            1 << 53
+        ])
+    ]
+}
+
+fn mutation() -> impl Strategy<Value = Mutation> {
+    let sizes =
+        prop::sample::select(vec![0u32, 1, 2, 3, 64, 1000, 2000, 8000, 16384, 65535, 1 << 20, 1 << 30, u32::MAX]);
+    prop_oneof![
+        (0..4usize, count()).prop_map(|(accessor, count)| Mutation::Count { accessor, count }),
+        (any::<bool>(), count(), prop_oneof![Just(1u64), count()], any::<bool>()).prop_map(
+            |(indices, count, sparse_count, keep_view)| Mutation::Sparse { indices, count, sparse_count, keep_view }
+        ),
+        (0..7usize, 0..3usize, prop_oneof![count(), prop::sample::select(vec![4u64, 12, 36, 48, 252, 256])])
+            .prop_map(|(view, field, value)| Mutation::View { view, field, value }),
+        count().prop_map(|value| Mutation::BufferLength { value }),
+        (any::<usize>(), prop::sample::select(vec![0u32, 3, 4, 65535, 1 << 31, u32::MAX]))
+            .prop_map(|(at, value)| Mutation::Index { at, value }),
+        (sizes.clone(), sizes, 0..8usize).prop_map(|(width, height, format)| Mutation::ImageSize {
+            width,
+            height,
+            format
+        }),
+        (0..64usize, proptest::collection::vec(0..64usize, 0..4))
+            .prop_map(|(node, children)| Mutation::Children { node, children }),
+        (1..40usize, 1..4usize).prop_map(|(levels, fan_out)| Mutation::Dag { levels, fan_out }),
+        (1..600usize).prop_map(|length| Mutation::Chain { length }),
+        prop::sample::select(vec![2usize, 10, 1000, 20_000]).prop_map(|count| Mutation::Primitives { count }),
+        prop::sample::select(vec![2usize, 10, 1000, 20_000]).prop_map(|count| Mutation::Instances { count }),
+        (0..8u64).prop_map(|mode| Mutation::Mode { mode }),
+    ]
+}
+
+/// Adds nodes to the document; returns the index of the first added.
+fn add_nodes(doc: &mut Value, nodes: impl IntoIterator<Item = Value>) -> usize {
+    let list = doc["nodes"].as_array_mut().unwrap();
+    let first = list.len();
+    list.extend(nodes);
+    first
+}
+
+/// The seed (a normal-mapped, textured grid of n x n quads) with the mutations applied.
+fn apply(n: usize, mutations: &[Mutation]) -> Vec<u8> {
+    let Parts { mut doc, mut buffer, indices_at, index_count, png_at } =
+        Grid { n, normal_mapped: true, ..Grid::default() }.parts();
+    for m in mutations {
+        match m {
+            Mutation::Count { accessor, count } => doc["accessors"][accessor]["count"] = json!(count),
+            Mutation::Sparse { indices, count, sparse_count, keep_view } => {
+                let accessors: &[usize] = if *indices { &[3] } else { &[0, 1, 2] };
+                for &i in accessors {
+                    let a = &mut doc["accessors"][i];
+                    a["count"] = json!(count);
+                    a["sparse"] = json!({
+                        "count": sparse_count,
+                        "indices": {"bufferView": 4, "componentType": 5125},
+                        "values": {"bufferView": 5}
+                    });
+                    if !keep_view {
+                        a.as_object_mut().unwrap().remove("bufferView");
+                    }
+                }
+            }
+            Mutation::View { view, field, value } => {
+                let key = ["byteLength", "byteOffset", "byteStride"][*field];
+                doc["bufferViews"][view][key] = json!(value);
+            }
+            Mutation::BufferLength { value } => doc["buffers"][0]["byteLength"] = json!(value),
+            Mutation::Index { at, value } => {
+                let i = indices_at + 4 * (at % index_count);
+                buffer[i..i + 4].copy_from_slice(&value.to_le_bytes());
+            }
+            Mutation::ImageSize { width, height, format } => {
+                let (depth, colour) = [(8u8, 6u8), (16, 6), (8, 2), (8, 0), (16, 0), (8, 4), (1, 0), (8, 3)][*format];
+                let ihdr = png_at + 8;
+                buffer[ihdr + 8..ihdr + 12].copy_from_slice(&width.to_be_bytes());
+                buffer[ihdr + 12..ihdr + 16].copy_from_slice(&height.to_be_bytes());
+                buffer[ihdr + 16] = depth;
+                buffer[ihdr + 17] = colour;
+                let crc = crc32(&buffer[ihdr + 4..ihdr + 21]);
+                buffer[ihdr + 21..ihdr + 25].copy_from_slice(&crc.to_be_bytes());
+            }
+            Mutation::Children { node, children } => {
+                let n = doc["nodes"].as_array().unwrap().len();
+                doc["nodes"][node % n]["children"] = json!(children.iter().map(|c| c % n).collect::<Vec<_>>());
+            }
+            Mutation::Dag { levels, fan_out } => {
+                let first = doc["nodes"].as_array().unwrap().len();
+                let nodes = (0..*levels).map(|i| {
+                    let next = if i + 1 == *levels { 0 } else { first + i + 1 };
+                    json!({"children": vec![next; *fan_out]})
+                });
+                let root = add_nodes(&mut doc, nodes.collect::<Vec<_>>());
+                doc["scenes"][0]["nodes"].as_array_mut().unwrap().push(json!(root));
+            }
+            Mutation::Chain { length } => {
+                let first = doc["nodes"].as_array().unwrap().len();
+                let nodes =
+                    (0..*length).map(|i| json!({"children": [if i + 1 == *length { 0 } else { first + i + 1 }]}));
+                let root = add_nodes(&mut doc, nodes.collect::<Vec<_>>());
+                doc["scenes"][0]["nodes"].as_array_mut().unwrap().push(json!(root));
+            }
+            Mutation::Primitives { count } => {
+                let prim = doc["meshes"][0]["primitives"][0].clone();
+                doc["meshes"][0]["primitives"] = Value::Array(vec![prim; *count]);
+            }
+            Mutation::Instances { count } => {
+                let root = add_nodes(&mut doc, vec![json!({"mesh": 0}); *count]);
+                let roots = doc["scenes"][0]["nodes"].as_array_mut().unwrap();
+                roots.extend((root..root + count).map(Value::from));
+            }
+            Mutation::Mode { mode } => doc["meshes"][0]["primitives"][0]["mode"] = json!(mode),
+        }
+    }
+    encode(doc, &buffer)
+}
+
+/// The memory limit the fuzzer loads with.
+const FUZZ_LIMIT: Limits = Limits { memory: 64 << 20 };
+
+/// Most time one case may take (loading and building within 64 MiB takes well under a
+/// second on one core; this leaves room for a loaded CI machine).
+const CASE_TIME: Duration = Duration::from_secs(30);
+
+/// What loading and building did: the number of triangles or the error, the peak of live
+/// bytes, and the time taken.
+struct Outcome {
+    result: Result<usize, String>,
+    peak: u64,
+    time: Duration,
+}
+
+/// Loads and builds `bytes` within `limits` on a thread of its own, so that a hang is
+/// reported as one after `CASE_TIME` instead of stalling the test; a panic is an error.
+fn exercise(bytes: Vec<u8>, limits: Limits) -> Result<Outcome, String> {
+    let start = Instant::now();
+    let ((received, worker), peak) = peak_of(|| {
+        let (tx, rx) = mpsc::channel();
+        let worker = std::thread::spawn(move || {
+            let result = gltf::load_slice_with_limits(&bytes, "fuzz", &limits)
+                .map(|desc| Scene::build(desc).geometry.len())
+                .map_err(|e| e.to_string());
+            let _ = tx.send(result);
+        });
+        (rx.recv_timeout(CASE_TIME), worker)
+    });
+    let time = start.elapsed();
+    match received {
+        Ok(result) => {
+            worker.join().map_err(|_| "the worker panicked after sending".to_string())?;
+            Ok(Outcome { result, peak, time })
+        }
+        Err(mpsc::RecvTimeoutError::Timeout) => Err(format!("no answer within {CASE_TIME:?}: it hangs")),
+        Err(mpsc::RecvTimeoutError::Disconnected) => {
+            let payload = worker.join().expect_err("a worker that sent nothing panicked");
+            let message = payload
+                .downcast_ref::<String>()
+                .cloned()
+                .or_else(|| payload.downcast_ref::<&str>().map(|s| s.to_string()));
+            Err(format!("panicked: {}", message.unwrap_or_default()))
+        }
+    }
+}
+
+/// The bound on what loading any input may take: the limit itself. The loader estimates
+/// the parsed JSON, buffers, images, flattened geometry and built scene before allocating
+/// them, so whatever it accepts fits in the limit, and what it refuses is refused before
+/// the parts over the limit are allocated.
+fn check_outcome(outcome: &Outcome, limits: &Limits, what: &str) -> Result<(), String> {
+    if let Err(e) = &outcome.result
+        && e.contains('\n')
+    {
+        return Err(format!("{what}: a refusal of more than one line: {e}"));
+    }
+    if outcome.peak > limits.memory {
+        return Err(format!("{what}: peaked at {} bytes, over the limit of {}", outcome.peak, limits.memory));
+    }
+    Ok(())
+}
+
+#[test]
+fn structurally_mutated_files_are_refused_or_loaded_within_the_limit_and_in_time() {
+    let _turn = serial();
+    let seed_outcome = exercise(apply(1, &[]), FUZZ_LIMIT).unwrap();
+    assert_eq!(seed_outcome.result, Ok(2), "the unmutated seed loads its quad");
+    let cases = std::env::var("LUCENT_FUZZ_CASES").ok().and_then(|s| s.parse().ok()).unwrap_or(1000);
+    // A hang costs CASE_TIME per shrinking step: shrinking stops after a minute.
+    let config =
+        Config { cases, failure_persistence: None, max_shrink_iters: 64, max_shrink_time: 60_000, ..Config::default() };
+    let mut runner = TestRunner::new_with_rng(config, TestRng::from_seed(RngAlgorithm::ChaCha, &[7; 32]));
+    let (refused, slowest, highest) = (Cell::new(0usize), Cell::new(Duration::ZERO), Cell::new(0u64));
+    // Grids from one quad to 2 x 200^2 triangles straddle the limit with real (not
+    // degenerate) geometry.
+    let seeds = prop_oneof![Just(1usize), 2..200usize];
+    let result = runner.run(&(seeds, proptest::collection::vec(mutation(), 0..5)), |(n, mutations)| {
+        let bytes = apply(n, &mutations);
+        let size = bytes.len();
+        let outcome = exercise(bytes, FUZZ_LIMIT).map_err(TestCaseError::fail)?;
+        check_outcome(&outcome, &FUZZ_LIMIT, &format!("{size}-byte file")).map_err(TestCaseError::fail)?;
+        refused.set(refused.get() + outcome.result.is_err() as usize);
+        slowest.set(slowest.get().max(outcome.time));
+        highest.set(highest.get().max(outcome.peak));
+        Ok(())
+    });
+    if let Err(e) = result {
+        panic!("{e}");
+    }
+    let (refused, slowest, highest) = (refused.get(), slowest.get(), highest.get());
+    eprintln!("{cases} cases: {refused} refused; slowest {slowest:?}; highest peak {highest} bytes");
+    assert!(
+        refused > cases as usize / 10 && refused < cases as usize * 9 / 10,
+        "the mutations reach both outcomes: {refused} of {cases} refused"
+    );
+}
+
+// --- committed hostile inputs ---
+
+fn corpus(name: &str) -> Vec<u8> {
+    std::fs::read(Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fuzz-corpus").join(name)).unwrap()
+}
+
+#[test]
+fn the_committed_hostile_inputs_are_refused_for_their_reasons_within_little_memory() {
+    let _turn = serial();
+    let limits = Limits { memory: 1 << 30 };
+    for (name, reason) in [
+        ("sparse-count-1e9.gltf", "read from accessors[0] (sparse), which expands to 1000000000 VEC3 elements"),
+        ("dag-2pow30-placements.gltf", "nodes[30] alone is reached along 1073741824 paths"),
+        ("node-cycle.gltf", "is its own descendant"),
+    ] {
+        let bytes = corpus(name);
+        let size = bytes.len() as u64;
+        let outcome = exercise(bytes, limits).unwrap_or_else(|e| panic!("{name}: {e}"));
+        let err = outcome.result.expect_err(name);
+        assert!(err.contains(reason) && !err.contains('\n'), "{name}: {err}");
+        assert!(outcome.peak < 64 * size + MB, "{name}: refusing it took {} bytes", outcome.peak);
+        assert!(outcome.time < Duration::from_secs(1), "{name}: refusing it took {:?}", outcome.time);
+    }
+    let sparse = gltf::load_slice_with_limits(&corpus("sparse-count-1e9.gltf"), "sparse", &limits);
+    assert!(matches!(sparse, Err(LoadError::TooLarge { .. })), "{:?}", sparse.err());
+}
+
+// --- the film ---
+
+#[test]
+fn the_film_estimate_covers_what_a_session_allocates_and_refuses_a_film_over_the_limit() {
+    let _turn = serial();
+    let scene = Arc::new(Scene::build(builtin::cornell_box()));
+    let camera = scene.default_camera(1.0);
+    let settings = Settings { width: 320, height: 240, target_spp: Some(4), ..Settings::default() };
+    let job = || Job { scene: Arc::clone(&scene), camera, settings };
+    let limits = Limits { memory: film_bytes(320, 240) };
+    let (snapshot, peak) = peak_of(|| RenderSession::with_limits(job(), Some(2), limits).unwrap().wait_until_done());
+    assert_eq!(snapshot.spp, 4);
+    drop(snapshot);
+    let film = film_bytes(320, 240);
+    assert!(peak <= film + MB, "a session peaked at {peak} bytes, over its film estimate of {film} plus 1 MB");
+    assert!(peak >= film / 2, "the film estimate of {film} bytes is far above the peak of {peak}");
+
+    let too_small = Limits { memory: film - 1 };
+    let (refused, peak) = peak_of(|| RenderSession::with_limits(job(), Some(2), too_small).err());
+    let err = refused.expect("one byte short is refused");
+    assert!(matches!(err, SessionError::TooLarge { width: 320, height: 240, .. }), "{err}");
+    assert!(peak < MB, "refusing took {peak} bytes");
+    let big = Settings { width: 16384, height: 16384, ..settings };
+    let session = RenderSession::with_limits(job(), Some(1), Limits { memory: 12_000_000_000 }).unwrap();
+    let err = session.set_job(Job { settings: big, ..job() }).unwrap_err().to_string();
+    assert_eq!(err, "image too large: 16384x16384 needs about 28.0 GB for the film, over the memory limit of 12.0 GB");
+}
+
+// --- synthetic scenes ---
+
+fn temp_dir(what: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("lucent-bad-input-{what}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// A synthetic mesh: a grid of n x n quads (2 n^2 triangles, none degenerate) with normals
+/// and UVs, textured by a 2x2 PNG.
+#[derive(Clone, Copy, Default)]
+struct Grid {
+    n: usize,
+    /// With a normal map, so that tangents are generated.
+    normal_mapped: bool,
+    /// As triangle strips (mode 5, one per row) instead of a list.
+    strips: bool,
+    /// With an emissive material, so that every triangle is a light.
+    emissive: bool,
+}
+
+/// A grid's glTF document and buffer. Views: 0 positions, 1 normals, 2 UVs, 3 u32 indices,
+/// 4 and 5 spare sparse indices (one u32) and values (12 bytes), 6 the PNG; accessors 0 to 3
+/// read views 0 to 3.
+struct Parts {
+    doc: Value,
+    buffer: Vec<u8>,
+    /// Where the indices start in the buffer, and how many there are.
+    indices_at: usize,
+    index_count: usize,
+    /// Where the PNG starts in the buffer.
+    png_at: usize,
+}
+
+impl Grid {
+    fn parts(self) -> Parts {
+        let Grid { n, normal_mapped, strips, emissive } = self;
+        let side = n + 1;
+        let mut buffer = Vec::new();
+        for y in 0..side {
+            for x in 0..side {
+                put_f32(&mut buffer, &[x as f32, y as f32, ((x * y) % 7) as f32 * 0.01]);
+            }
+        }
+        let normals_at = buffer.len();
+        (0..side * side).for_each(|_| put_f32(&mut buffer, &[0., 0., 1.]));
+        let uvs_at = buffer.len();
+        for y in 0..side {
+            for x in 0..side {
+                put_f32(&mut buffer, &[x as f32 / n as f32, y as f32 / n as f32]);
+            }
+        }
+        let indices_at = buffer.len();
+        let at = |x: usize, y: usize| (y * side + x) as u32;
+        let mut indices = Vec::new();
+        for y in 0..n {
+            if strips {
+                // One strip per row, joined to the next by repeated vertices.
+                (0..side).for_each(|x| indices.extend([at(x, y), at(x, y + 1)]));
+                indices.extend([at(n, y + 1), at(0, y + 1)]);
+            } else {
+                for x in 0..n {
+                    indices.extend([
+                        at(x, y),
+                        at(x + 1, y),
+                        at(x + 1, y + 1),
+                        at(x, y),
+                        at(x + 1, y + 1),
+                        at(x, y + 1),
+                    ]);
+                }
+            }
+        }
+        indices.iter().for_each(|i| buffer.extend_from_slice(&i.to_le_bytes()));
+        let sparse_at = buffer.len();
+        buffer.extend_from_slice(&1u32.to_le_bytes());
+        put_f32(&mut buffer, &[2., 0., 0.]);
+        let png_at = buffer.len();
+        let png = tiny_png();
+        buffer.extend_from_slice(&png);
+        let verts = side * side;
+        let view = |offset: usize, end: usize| json!({"buffer": 0, "byteOffset": offset, "byteLength": end - offset});
+        let mut primitive =
+            json!({"attributes": {"POSITION": 0, "NORMAL": 1, "TEXCOORD_0": 2}, "indices": 3, "material": 0});
+        if strips {
+            primitive["mode"] = json!(5);
+        }
+        let mut material = json!({"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}});
+        if normal_mapped {
+            material["normalTexture"] = json!({"index": 0});
+        }
+        if emissive {
+            material["emissiveFactor"] = json!([1.0, 0.5, 0.25]);
+        }
+        let doc = json!({
+            "asset": {"version": "2.0"},
+            "scene": 0,
+            "scenes": [{"nodes": [0]}],
+            "nodes": [{"mesh": 0}],
+            "meshes": [{"primitives": [primitive]}],
+            "materials": [material],
+            "textures": [{"source": 0}],
+            "images": [{"bufferView": 6, "mimeType": "image/png"}],
+            "buffers": [{"byteLength": buffer.len()}],
+            "bufferViews": [
+                view(0, normals_at), view(normals_at, uvs_at), view(uvs_at, indices_at), view(indices_at, sparse_at),
+                view(sparse_at, sparse_at + 4), view(sparse_at + 4, png_at), view(png_at, png_at + png.len())
+            ],
+            "accessors": [
+                {"bufferView": 0, "componentType": 5126, "count": verts, "type": "VEC3", "min": [0, 0, 0], "max": [n, n, 0.06]},
+                {"bufferView": 1, "componentType": 5126, "count": verts, "type": "VEC3"},
+                {"bufferView": 2, "componentType": 5126, "count": verts, "type": "VEC2"},
+                {"bufferView": 3, "componentType": 5125, "count": indices.len(), "type": "SCALAR"}
+            ]
+        });
+        Parts { doc, buffer, indices_at, index_count: indices.len(), png_at }
+    }
+
+    /// The glTF file.
+    fn file(self) -> Vec<u8> {
+        let Parts { doc, buffer, .. } = self.parts();
+        encode(doc, &buffer)
+    }
+}
