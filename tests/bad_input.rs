@@ -102,7 +102,7 @@ fn the_estimate_covers_what_loading_and_building_take_and_is_not_far_above() {
         "MetalRoughSpheresNoTextures/glTF-Binary/MetalRoughSpheresNoTextures.glb",
         "NormalTangentTest/glTF-Binary/NormalTangentTest.glb",
         "NormalTangentMirrorTest/glTF-Binary/NormalTangentMirrorTest.glb",
-        "DamagedHelmet/glTF-Binary/DamagedHelmet.glb",
+        "ToyCar/glTF/ToyCar.gltf",
         "WaterBottle/glTF/WaterBottle.gltf",
         "LightsPunctualLamp/glTF/LightsPunctualLamp.gltf",
         "AttenuationTest/glTF-Binary/AttenuationTest.glb",

@@ -214,3 +214,16 @@ fn distribution_ray_tracing_states_its_cost_before_it_starts() {
     // 1 + 2 + 4 rays, plus a shadow ray at each of the 1 + 2 hits below the last depth.
     assert!(stderr(&o).contains("up to 1.000e1 rays per sample, 3.000e1 per pixel at 3 spp"), "{}", stderr(&o));
 }
+
+#[test]
+fn the_readme_and_help_document_every_setting_of_the_tables() {
+    use lucent::film::tonemap::DISPLAY;
+    use lucent::integrator::Settings;
+    let readme = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/README.md")).unwrap();
+    let help = String::from_utf8_lossy(&lucent(&["render", "--help"]).stdout).into_owned();
+    let names = Settings::table().iter().map(|p| (p.name, p.help)).chain(DISPLAY.iter().map(|p| (p.name, p.help)));
+    for (name, doc) in names {
+        assert!(readme.contains(&format!("`--{name}")), "README's option table lacks --{name}");
+        assert!(help.contains(&format!("--{name}")) && help.contains(doc), "--help lacks --{name}: {doc}");
+    }
+}
