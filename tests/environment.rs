@@ -235,7 +235,7 @@ fn bsdf_sampling_light_sampling_and_mis_agree_under_an_hdr_sky() {
 
 #[test]
 fn a_truncated_map_is_called_truncated_and_named() {
-    let bytes = std::fs::read(common::asset("environments/venice_sunset_1k.hdr")).unwrap();
+    let bytes = std::fs::read(concat!(env!("CARGO_MANIFEST_DIR"), "/assets/venice_sunset_1k.hdr")).unwrap();
     let dir = std::env::temp_dir().join(format!("lucent-env-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join("cut.hdr");
