@@ -67,6 +67,7 @@ impl Sampler {
     }
 
     /// Next uniform number in [0, 1), with 24 bits of precision (exactly representable).
+    #[inline]
     pub fn next_1d(&mut self) -> f32 {
         match &mut self.inner {
             Inner::Independent(rng) => (rng.next_u32() >> 8) as f32 * (1.0 / (1u32 << 24) as f32),
@@ -80,6 +81,7 @@ impl Sampler {
     /// Next pair of uniform numbers in [0, 1)^2. For Sobol, the first two dimensions of a
     /// sequence scrambled for this draw (pbrt-v4's padded Sobol), so that the pairs of
     /// one pixel's samples are stratified in 2D, and different draws are independent.
+    #[inline]
     pub fn next_2d(&mut self) -> Vec2 {
         match &mut self.inner {
             Inner::Independent(_) => {
