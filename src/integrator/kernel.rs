@@ -6,8 +6,8 @@
 //! tracking, alpha and culling in traversal) and on the scene's own data (no light: no
 //! light sampling; no environment: nothing on escape; a Lambertian material: no GGX). The
 //! kernel used to be monomorphised over four of these switches through 16 instances; with
-//! runtime switches the Cornell box runs 0.3% more instructions per sample (callgrind,
-//! 96x96 at 4 spp: 525.0 M against 523.3 M) and renders the same bits, because the
+//! runtime switches the Cornell box runs 0.6% more instructions per sample (callgrind,
+//! 96x96 at 4 spp: 526.5 M against 523.3 M) and renders the same bits, because the
 //! branches removed were cheap and predictable. Compile-time specialisation is kept for
 //! what changes types or per-hit work substantially, such as a spectral kernel.
 
