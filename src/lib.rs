@@ -46,6 +46,7 @@ pub mod film;
 pub mod integrator;
 pub mod loader;
 pub mod math;
+pub mod medium;
 pub mod memory;
 pub mod open;
 pub mod params;

@@ -11,6 +11,9 @@ use std::ops::{Add, AddAssign, Div, DivAssign, Mul, MulAssign, Sub};
 pub struct Spectrum(Vec3);
 
 impl Spectrum {
+    /// Number of channels (wavelength samples) a spectrum holds.
+    pub const CHANNELS: usize = 3;
+
     /// No light.
     pub const ZERO: Self = Self(Vec3::ZERO);
     /// A white of 1 in every channel.
@@ -34,6 +37,16 @@ impl Spectrum {
     /// Linear RGB of this spectrum, for the film and for tests.
     pub const fn to_rgb(self) -> Vec3 {
         self.0
+    }
+
+    /// Channel `i` (0..CHANNELS).
+    pub fn get(self, i: usize) -> f32 {
+        self.0[i]
+    }
+
+    /// Mean over the channels.
+    pub fn average(self) -> f32 {
+        (self.0.x + self.0.y + self.0.z) / 3.0
     }
 
     /// Largest channel.

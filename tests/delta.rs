@@ -6,7 +6,7 @@
 use glam::{UVec2, Vec2, Vec3};
 use lucent::bsdf::microfacet::fresnel_dielectric;
 use lucent::bsdf::{Bsdf, LobeFlags, MetalRough, TransportMode};
-use lucent::integrator::{LightSampling, Settings, sample_pixel};
+use lucent::integrator::{LightSampling, Settings, View, sample_pixel};
 use lucent::math::warp;
 use lucent::scene::{MeshDesc, Scene, SceneDesc, camera::Camera, material::Material, shapes::uv_sphere};
 use lucent::spectrum::Spectrum;
@@ -125,12 +125,12 @@ fn all_delta_scene(roughness: f32) -> Scene {
 #[test]
 fn no_shadow_ray_leaves_a_delta_vertex() {
     let camera = Camera::look_at(Vec3::new(0.0, 0.3, 1.0), Vec3::new(0.0, 0.0, -1.0), 1.0);
-    let rays = camera.rays(16, 16);
     let count = |scene: &Scene, light_sampling| {
+        let view = View::new(scene, &camera, 16, 16);
         let s = Settings { light_sampling, max_depth: 6, ..Settings::default() };
         let (mut shadow, mut all, mut light) = (0u64, 0u64, 0.0f64);
         for i in 0..16 * 16 * 4u32 {
-            let out = sample_pixel(scene, &s, &rays, UVec2::new(i % 16, (i / 16) % 16), (i / 256) as u64);
+            let out = sample_pixel(scene, &s, &view, UVec2::new(i % 16, (i / 16) % 16), (i / 256) as u64);
             shadow += out.shadow_rays as u64;
             all += out.rays as u64;
             light += out.radiance.to_rgb().x as f64;

@@ -6,7 +6,7 @@
 //! Inputs that once crashed are kept in tests/fuzz-corpus and replayed first.
 
 use glam::UVec2;
-use lucent::integrator::{Settings, sample_pixel};
+use lucent::integrator::{Settings, View, sample_pixel};
 use lucent::loader::{Limits, gltf};
 use lucent::scene::Scene;
 use proptest::prelude::*;
@@ -33,9 +33,9 @@ fn exercise(bytes: &[u8]) {
     let Ok(desc) = gltf::load_slice_with_limits(bytes, "fuzz", &LIMITS) else { return };
     let scene = Scene::build(desc);
     let settings = Settings { width: 4, height: 4, max_depth: 4, ..Settings::default() };
-    let rays = scene.default_camera(1.0).rays(settings.width, settings.height);
+    let view = View::new(&scene, &scene.default_camera(1.0), settings.width, settings.height);
     for i in 0..16u32 {
-        let out = sample_pixel(&scene, &settings, &rays, UVec2::new(i % 4, i / 4), i as u64);
+        let out = sample_pixel(&scene, &settings, &view, UVec2::new(i % 4, i / 4), i as u64);
         // Non-finite radiance is allowed only if the film would drop it; it must not panic.
         let _ = out.radiance.is_finite();
     }

@@ -5,7 +5,7 @@
 
 use glam::{UVec2, Vec3};
 use lucent::integrator::nan::{self, NanCause};
-use lucent::integrator::{Settings, sample_pixel};
+use lucent::integrator::{Settings, View, sample_pixel};
 use lucent::loader::builtin;
 use lucent::scene::Scene;
 
@@ -21,9 +21,9 @@ fn render_with(edit: impl Fn(&mut Vec<lucent::scene::material::Material>)) -> u3
     edit(&mut materials);
     let scene = scene.with_edits(materials, scene.lights.clone());
     let settings = Settings { width: 8, height: 8, ..Settings::default() };
-    let rays = scene.default_camera(1.0).rays(8, 8);
+    let view = View::new(&scene, &scene.default_camera(1.0), 8, 8);
     (0..64u32)
-        .map(|i| !sample_pixel(&scene, &settings, &rays, UVec2::new(i % 8, i / 8), 0).radiance.is_finite() as u32)
+        .map(|i| !sample_pixel(&scene, &settings, &view, UVec2::new(i % 8, i / 8), 0).radiance.is_finite() as u32)
         .sum()
 }
 

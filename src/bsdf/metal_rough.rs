@@ -141,6 +141,18 @@ impl MetalRough {
         is_smooth(self.alpha)
     }
 
+    /// Whether the interface's lobes are deltas: it is smooth, or index-matched (between
+    /// equal indices nothing bends and Fresnel reflects nothing, whatever the microfacets).
+    fn smooth_interface(&self) -> bool {
+        self.smooth() || (self.eta - 1.0).abs() < 1e-3
+    }
+
+    /// Whether the interface's transmission leaves straight through (a null lobe): a smooth
+    /// thin wall, or an index-matched interface.
+    fn straight(&self) -> bool {
+        self.smooth_interface() && self.interface().thin
+    }
+
     /// Whether the clearcoat is present and a delta.
     fn smooth_coat(&self) -> bool {
         self.clearcoat > 0.0 && is_smooth(self.clearcoat_alpha)
@@ -175,15 +187,20 @@ impl MetalRough {
             flags |= LobeFlags::TRANSMISSION;
         }
         let diffuse_base = self.metallic < 1.0 && self.transmission < 1.0;
-        if diffuse_base || self.sheen.max_element() > 0.0 || !self.smooth() {
+        let opaque_specular = self.metallic > 0.0 || (self.specular > 0.0 && self.transmission < 1.0);
+        let interface = self.transmits();
+        if diffuse_base || self.sheen.max_element() > 0.0 || (opaque_specular && !self.smooth()) {
             flags |= LobeFlags::DIFFUSE;
         }
-        let base_lobes = self.metallic > 0.0 || self.specular > 0.0 || self.transmits();
-        if (base_lobes && !self.smooth()) || (self.clearcoat > 0.0 && !self.smooth_coat()) {
+        let rough_coat = self.clearcoat > 0.0 && !self.smooth_coat();
+        if (opaque_specular && !self.smooth()) || (interface && !self.smooth_interface()) || rough_coat {
             flags |= LobeFlags::GLOSSY;
         }
-        if (base_lobes && self.smooth()) || self.smooth_coat() {
+        if (opaque_specular && self.smooth()) || (interface && self.smooth_interface()) || self.smooth_coat() {
             flags |= LobeFlags::SPECULAR;
+        }
+        if interface && self.straight() {
+            flags |= LobeFlags::NULL;
         }
         flags
     }
@@ -285,7 +302,7 @@ impl MetalRough {
 
     fn eval_pdf_with(&self, p: &Lobes, wo: Vec3, wi: Vec3, mode: TransportMode) -> (Spectrum, f32) {
         let (sheen_w, coat_w) = self.layer_weights(wo.z, wi.z.abs());
-        let (interface, interface_pdf) = if self.transmits() && !self.smooth() {
+        let (interface, interface_pdf) = if self.transmits() && !self.smooth_interface() {
             let tint = if wi.z > 0.0 { self.specular_tint } else { self.base };
             let (f, pdf) = self.interface().eval_pdf(wo, wi, mode);
             (tint * (f * self.transmission * (1.0 - self.metallic)), p.interface * pdf)
@@ -354,12 +371,12 @@ impl MetalRough {
         let mut d = Deltas { reflection: 0.0, transmission: 0.0, interface_reflectance: 0.0 };
         if self.smooth() {
             d.reflection += p.specular;
-            if p.interface > 0.0 {
-                let r = self.interface().reflectance(wo.z);
-                d.interface_reflectance = r;
-                d.reflection += p.interface * r;
-                d.transmission = p.interface * (1.0 - r);
-            }
+        }
+        if self.smooth_interface() && p.interface > 0.0 {
+            let r = self.interface().reflectance(wo.z);
+            d.interface_reflectance = r;
+            d.reflection += p.interface * r;
+            d.transmission = p.interface * (1.0 - r);
         }
         if self.smooth_coat() {
             d.reflection += p.clearcoat;
@@ -379,13 +396,13 @@ impl MetalRough {
         let mu = wo.z;
         let (sheen_w, coat_w) = self.layer_weights(mu, mu);
         let mut base = Spectrum::ZERO;
+        let (m, tr) = (self.metallic, if self.transmits() { self.transmission } else { 0.0 });
         if self.smooth() {
-            let (m, tr) = (self.metallic, if self.transmits() { self.transmission } else { 0.0 });
             let dielectric = schlick(self.dielectric_f0, mu) * (self.specular * (1.0 - tr));
             base = schlick(self.base, mu) * m + dielectric * (1.0 - m);
-            if tr > 0.0 {
-                base += self.specular_tint * (r * tr * (1.0 - m));
-            }
+        }
+        if self.smooth_interface() && tr > 0.0 {
+            base += self.specular_tint * (r * tr * (1.0 - m));
         }
         let mut f = base * coat_w;
         if self.smooth_coat() {
@@ -399,6 +416,14 @@ impl MetalRough {
         let (sheen_w, coat_w) = self.layer_weights(wo.z, wi.z.abs());
         let share = (1.0 - r) * self.transmission * (1.0 - self.metallic) * self.interface().transmission_scale(mode);
         self.base * (share * sheen_w * coat_w)
+    }
+
+    /// What the null lobe passes straight through towards -wo, if there is one.
+    pub fn null_transmission(&self, wo: Vec3) -> Option<Spectrum> {
+        (self.transmits() && self.straight()).then(|| {
+            let r = self.interface().reflectance(wo.z);
+            self.delta_transmission(wo, -wo, r, TransportMode::Radiance)
+        })
     }
 
     /// Chooses a technique with `u_lobe` (the deltas first: `u_lobe` below
@@ -417,12 +442,15 @@ impl MetalRough {
             let interface = self.interface();
             let wi = interface.smooth_transmission(wo)?;
             let weight = self.delta_transmission(wo, wi, deltas.interface_reflectance, mode) / deltas.transmission;
-            let flags = LobeFlags::TRANSMISSION | LobeFlags::SPECULAR;
+            let mut flags = LobeFlags::TRANSMISSION | LobeFlags::SPECULAR;
+            if self.straight() {
+                flags |= LobeFlags::NULL;
+            }
             return Some(BsdfSample { wi, weight, pdf: deltas.transmission, flags, eta: interface.crossed_eta() });
         }
         x -= deltas.transmission;
-        let rough = !self.smooth();
-        let (p_interface, p_specular) = if rough { (p.interface, p.specular) } else { (0.0, 0.0) };
+        let p_interface = if self.smooth_interface() { 0.0 } else { p.interface };
+        let p_specular = if self.smooth() { 0.0 } else { p.specular };
         let p_coat = if self.smooth_coat() { 0.0 } else { p.clearcoat };
         let above = |w: Vec3| (w.z > 0.0).then_some(w);
         let (wi, glossy) = if x < p_interface {

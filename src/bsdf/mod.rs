@@ -48,6 +48,10 @@ bitflags::bitflags! {
         const GLOSSY = 1 << 3;
         /// A delta lobe: one direction (a mirror, a smooth interface).
         const SPECULAR = 1 << 4;
+        /// Light passes straight through, as if the surface were not there: an
+        /// index-matched interface, or a smooth thin wall's transmission (Mitsuba 3's null
+        /// lobe). Paths cross it without a bounce; shadow rays cross it with its weight.
+        const NULL = 1 << 5;
     }
 }
 
@@ -175,6 +179,16 @@ impl Bsdf<'_> {
             Bsdf::Lambert(b) => (b.eval(wi), crate::math::warp::cos_hemisphere_pdf(wi.z)),
             Bsdf::MetalRough(b) => b.eval_pdf(wo, wi, mode),
             Bsdf::Measured(t) => (Spectrum::from_rgb(t.eval(wo, wi) * wi.z), t.pdf(wo, wi)),
+        }
+    }
+
+    /// What passes straight through towards `-wo` (f |cos| of the null lobe, integrated over
+    /// its delta), if the BSDF has a null lobe: the transmittance a shadow ray picks up
+    /// crossing the surface.
+    pub fn null_transmission(&self, wo: Vec3) -> Option<Spectrum> {
+        match self {
+            Bsdf::MetalRough(b) if wo.z > 0.0 => b.null_transmission(wo),
+            _ => None,
         }
     }
 

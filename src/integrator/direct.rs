@@ -1,18 +1,30 @@
 //! Next-event estimation (the textbook's explicit light sampling, section 10.9): at a vertex
-//! with a non-delta lobe, one light is sampled (`Scene::sample_li`), the shadow ray towards
-//! it is traced here, with the transmittance of the volume it runs through, and the
-//! estimate is weighted against BSDF sampling by MIS. A vertex with only delta lobes
-//! samples no light: no light direction could be reflected by it.
+//! with a non-delta lobe, or at a point where a medium scatters, one light is sampled
+//! (`Scene::sample_li`), the shadow ray towards it is traced here, and the estimate is
+//! weighted against BSDF or phase sampling by MIS. A vertex with only delta lobes samples
+//! no light: no light direction could be reflected by it.
+//!
+//! Shadow rays carry the transmittance of the volumes they run through and cross surfaces
+//! that let light straight through (the null lobe of an index-matched interface or a smooth
+//! thin wall), picking up what those pass; any other surface blocks them.
 
-use super::media::transmittance;
+use super::media::{Media, transmittance};
 use super::mis::power_heuristic;
 use super::scatter::Sampling;
 use super::settings::{LightSampling, Settings};
 use super::vertex::Vertex;
 use crate::math::{float::offset_ray_origin, sampler::Sampler};
-use crate::scene::{Scene, geometry::Ray, light::LightTarget};
+use crate::medium::phase::HenyeyGreenstein;
+use crate::scene::{
+    Scene,
+    geometry::Ray,
+    light::{LightSample, LightTarget},
+};
 use crate::spectrum::Spectrum;
 use glam::Vec3;
+
+/// Most see-through surfaces one shadow ray crosses before it counts as blocked.
+const MAX_CROSSINGS: u32 = 64;
 
 /// What one light sample contributed, and whether it traced a shadow ray.
 #[derive(Clone, Copy, Debug)]
@@ -27,37 +39,74 @@ impl DirectLight {
     const NONE: Self = Self { radiance: Spectrum::ZERO, shadow_ray: false };
 }
 
-/// The shadow ray from `vertex` along world direction `wi` towards `target`, and the
-/// transmittance of the volume it runs through; None if `wi` leaves on a side the BSDF does
-/// not reach.
-fn shadow_ray(
-    scene: &Scene,
-    settings: &Settings,
-    vertex: &Vertex,
-    wi: Vec3,
-    target: LightTarget,
-) -> Option<(Ray, Spectrum)> {
-    let (_, origin, crosses) = vertex.leave(vertex.frame.to_local(wi))?;
-    let (d, tmax) = match target {
+/// The end of a shadow ray from `origin` towards `target` along `wi`: its direction scaled
+/// so that the target is at t = 1, or `wi` with t unbounded.
+fn towards(settings: &Settings, origin: Vec3, wi: Vec3, target: LightTarget) -> (Vec3, f32) {
+    match target {
         LightTarget::Surface { p, error, n } => {
             let end = if settings.offset_origins { offset_ray_origin(p, error, n, -wi) } else { p };
             (end - origin, 1.0)
         }
         LightTarget::Point(p) => (p - origin, 1.0),
         LightTarget::Infinite => (wi, f32::INFINITY),
-    };
-    let tr = if scene.features.volumes {
-        let sigma = vertex.media_after(scene, crosses).sigma_a(&scene.materials);
-        transmittance(sigma, d.length() * tmax)
-    } else {
-        Spectrum::ONE
-    };
-    Some((Ray { o: origin, d, tmax }, tr))
+    }
 }
 
-/// Direct light at `vertex` from one light chosen in proportion to power. Area lights are
-/// sampled by area and converted to solid angle, `Le f cos_s cos_l / (d^2 p_area p_select)`,
-/// with no clamp.
+/// Transmittance of the shadow ray from `origin` towards `target` along `wi`, starting in
+/// `media`: zero if an opaque or refracting surface blocks it.
+fn shadow(scene: &Scene, settings: &Settings, origin: Vec3, wi: Vec3, target: LightTarget, media: Media) -> Spectrum {
+    let (d, tmax) = towards(settings, origin, wi, target);
+    let mut ray = Ray { o: origin, d, tmax };
+    let segment = |media: &Media, t: f32, d: Vec3| {
+        if scene.features.volumes {
+            transmittance(media.sigma_t(&scene.materials), t * d.length())
+        } else {
+            Spectrum::ONE
+        }
+    };
+    if !scene.features.see_through {
+        return if scene.occluded(&ray, settings.watertight) { Spectrum::ZERO } else { segment(&media, tmax, d) };
+    }
+    let (mut tr, mut media) = (Spectrum::ONE, media);
+    for _ in 0..MAX_CROSSINGS {
+        let Some(hit) = scene.intersect(&ray, settings.watertight, false) else {
+            return tr * segment(&media, ray.tmax, ray.d);
+        };
+        let surface = scene.surface(&hit);
+        if !scene.materials[surface.material as usize].is_transmissive() {
+            return Spectrum::ZERO;
+        }
+        tr *= segment(&media, hit.t, ray.d);
+        let vertex = Vertex::new(scene, settings, surface, ray.d, media);
+        let Some(passed) = vertex.bsdf.null_transmission(vertex.wo) else { return Spectrum::ZERO };
+        tr *= passed;
+        if tr.is_black() {
+            return tr;
+        }
+        media = vertex.media_after(scene, true);
+        let (d, tmax) = towards(settings, vertex.behind, wi, target);
+        ray = Ray { o: vertex.behind, d, tmax };
+    }
+    Spectrum::ZERO
+}
+
+/// The light sample's contribution for a scattering function value `f` (f |cos| at a
+/// surface, the phase function in a medium) of density `pdf` for the direction, and the
+/// shadow ray's transmittance `tr`.
+fn weighted(settings: &Settings, light: &LightSample, f: Spectrum, pdf: f32, tr: Spectrum) -> Spectrum {
+    if light.is_delta {
+        return light.radiance * f * tr / light.pdf;
+    }
+    let weight = match settings.light_sampling {
+        LightSampling::Mis => power_heuristic(light.pdf, pdf),
+        _ => 1.0,
+    };
+    light.radiance * f * tr * (weight / light.pdf)
+}
+
+/// Direct light at the surface `vertex` from one light chosen in proportion to power. Area
+/// lights are sampled by area and converted to solid angle, `Le f cos_s cos_l / (d^2 p_area
+/// p_select)`, with no clamp.
 pub fn sample_direct(scene: &Scene, settings: &Settings, vertex: &Vertex, sampler: &mut Sampler) -> DirectLight {
     let u_select = sampler.next_2d();
     let u = sampler.next_2d();
@@ -70,20 +119,33 @@ pub fn sample_direct(scene: &Scene, settings: &Settings, vertex: &Vertex, sample
     if f.is_black() {
         return DirectLight::NONE;
     }
-    let Some((ray, tr)) = shadow_ray(scene, settings, vertex, light.wi, light.target) else {
+    let Some((_, origin, crosses)) = vertex.leave(vertex.frame.to_local(light.wi)) else {
         return DirectLight::NONE;
     };
-    if scene.occluded(&ray, settings.watertight) {
+    let tr = shadow(scene, settings, origin, light.wi, light.target, vertex.media_after(scene, crosses));
+    if tr.is_black() {
         return DirectLight { radiance: Spectrum::ZERO, shadow_ray: true };
     }
-    let radiance = if light.is_delta {
-        light.radiance * f * tr / light.pdf
-    } else {
-        let weight = match settings.light_sampling {
-            LightSampling::Mis => power_heuristic(light.pdf, bsdf_pdf),
-            _ => 1.0,
-        };
-        light.radiance * f * tr * (weight / light.pdf)
-    };
-    DirectLight { radiance, shadow_ray: true }
+    DirectLight { radiance: weighted(settings, &light, f, bsdf_pdf, tr), shadow_ray: true }
+}
+
+/// Direct light at a point `p` where a medium of phase function `phase` scatters light
+/// towards `wo`, the path being in `media` there.
+pub fn sample_medium(
+    scene: &Scene,
+    settings: &Settings,
+    (p, wo): (Vec3, Vec3),
+    phase: HenyeyGreenstein,
+    media: Media,
+    sampler: &mut Sampler,
+) -> DirectLight {
+    let u_select = sampler.next_2d();
+    let u = sampler.next_2d();
+    let Some(light) = scene.sample_li(p, u_select, u) else { return DirectLight::NONE };
+    let f = phase.eval(wo, light.wi);
+    let tr = shadow(scene, settings, p, light.wi, light.target, media);
+    if tr.is_black() {
+        return DirectLight { radiance: Spectrum::ZERO, shadow_ray: true };
+    }
+    DirectLight { radiance: weighted(settings, &light, Spectrum::splat(f), f, tr), shadow_ray: true }
 }

@@ -3,7 +3,9 @@
 //! costs up to branching^depth rays. Directions come from stratified Monte Carlo (BSDF or
 //! uniform sampling per stratum, unbiased) or from the textbook's theta/phi grid (eqs. 8
 //! to 10, deterministic and biased). Light sampling at each hit works as in the path
-//! tracer, with the direction scheme's density in the MIS weights.
+//! tracer, with the direction scheme's density in the MIS weights. Surfaces with a null lobe
+//! are crossed without a bounce, as in the path tracer. Participating media are the path
+//! tracer's (a scene with a scattering medium refuses this estimator).
 
 use super::direct::sample_direct;
 use super::emission::{emitted, escaped};
@@ -13,17 +15,18 @@ use super::mis::Scattered;
 use super::scatter::Sampling;
 use super::settings::{Directions, LightSampling, Settings};
 use super::vertex::Vertex;
-use crate::bsdf::{Bsdf, TransportMode};
+use crate::bsdf::{Bsdf, LobeFlags, TransportMode};
 use crate::math::sampler::Sampler;
 use crate::scene::{Scene, geometry::Ray};
 use crate::spectrum::Spectrum;
 use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_PI_2, TAU};
 
-/// Radiance along a camera ray by distribution ray tracing, and the rays it traced.
-pub fn radiance(scene: &Scene, settings: &Settings, ray: Ray, sampler: &mut Sampler) -> PathOutput {
+/// Radiance along a camera ray starting in `media` by distribution ray tracing, and the
+/// rays it traced.
+pub fn radiance(scene: &Scene, settings: &Settings, ray: Ray, media: Media, sampler: &mut Sampler) -> PathOutput {
     let mut out = PathOutput::default();
-    let radiance = trace(scene, settings, ray, Media::default(), 0, None, sampler, &mut out);
+    let radiance = trace(scene, settings, ray, media, (0, 0.0), None, sampler, &mut out);
     PathOutput { radiance, ..out }
 }
 
@@ -42,14 +45,15 @@ fn strata_shape(n: u32) -> (u32, u32) {
     (n / a, a)
 }
 
-/// Radiance arriving along `ray`, which was sampled as `last`, counting rays into `out`.
+/// Radiance arriving along `ray` at bounce `depth`, `travelled` from the vertex that sampled
+/// it as `last`, counting rays into `out`.
 #[allow(clippy::too_many_arguments)]
 fn trace(
     scene: &Scene,
     settings: &Settings,
     ray: Ray,
     media: Media,
-    depth: u32,
+    (depth, travelled): (u32, f32),
     last: Option<Scattered>,
     sampler: &mut Sampler,
     out: &mut PathOutput,
@@ -59,19 +63,28 @@ fn trace(
         return escaped(scene, settings, ray.d, last, &media);
     };
     let absorbed = if scene.features.volumes {
-        transmittance(media.sigma_a(&scene.materials), hit.t * ray.d.length())
+        transmittance(media.sigma_t(&scene.materials), hit.t * ray.d.length())
     } else {
         Spectrum::ONE
     };
     let surface = scene.surface(&hit);
     let mut radiance = Spectrum::ZERO;
     if surface.ng.dot(ray.d) < 0.0 {
-        radiance += emitted(scene, settings, &surface, -ray.d, hit.t, last);
+        radiance += emitted(scene, settings, &surface, -ray.d, travelled + hit.t, last);
     }
-    if depth == settings.max_depth {
+    if depth == settings.max_depth && !scene.features.see_through {
         return radiance * absorbed;
     }
     let vertex = Vertex::new(scene, settings, surface, ray.d, media);
+    if depth == settings.max_depth {
+        // No bounce is left, but light passing straight through still goes on.
+        if let Some(passed) = vertex.bsdf.null_transmission(vertex.wo).filter(|p| !p.is_black()) {
+            let next = Ray { o: vertex.behind, d: ray.d, tmax: f32::INFINITY };
+            let media = vertex.media_after(scene, true);
+            radiance += passed * trace(scene, settings, next, media, (depth, travelled + hit.t), last, sampler, out);
+        }
+        return radiance * absorbed;
+    }
     if settings.light_sampling != LightSampling::Off && !scene.light_sampler.is_empty() {
         let direct = sample_direct(scene, settings, &vertex, sampler);
         radiance += direct.radiance;
@@ -79,11 +92,16 @@ fn trace(
         out.shadow_rays += direct.shadow_ray as u32;
     }
     let n = settings.branching;
-    let mut follow = |wi_local: Vec3, weight: Spectrum, scattered: Scattered, sampler: &mut Sampler| {
+    // A direction sampled as `scattered`, or passed straight through a null lobe (None).
+    let mut follow = |wi_local: Vec3, weight: Spectrum, scattered: Option<Scattered>, sampler: &mut Sampler| {
         let Some((d, o, crosses)) = vertex.leave(wi_local) else { return Spectrum::ZERO };
         let next = Ray { o, d, tmax: f32::INFINITY };
         let media = vertex.media_after(scene, crosses);
-        weight * trace(scene, settings, next, media, depth + 1, Some(scattered), sampler, out)
+        let (depth, travelled, last) = match scattered {
+            Some(s) => (depth + 1, 0.0, Some(s)),
+            None => (depth, travelled + hit.t, last),
+        };
+        weight * trace(scene, settings, next, media, (depth, travelled), last, sampler, out)
     };
     let sampling = Sampling::new(settings.importance_sampling);
     match settings.directions {
@@ -95,7 +113,8 @@ fn trace(
                 let u = (cell + sampler.next_2d()) / Vec2::new(sx as f32, sy as f32);
                 let u = u.min(Vec2::splat(1.0 - f32::EPSILON));
                 if let Some(bs) = sampling.sample(&vertex.bsdf, vertex.wo, u_lobe, u) {
-                    let scattered = Scattered { pdf: bs.pdf, specular: bs.is_specular() };
+                    let null = bs.flags.contains(LobeFlags::NULL);
+                    let scattered = (!null).then_some(Scattered { pdf: bs.pdf, specular: bs.is_specular() });
                     radiance += follow(bs.wi, bs.weight / n as f32, scattered, sampler);
                 }
             }
@@ -113,7 +132,7 @@ fn grid(
     wo: Vec3,
     n: u32,
     sampler: &mut Sampler,
-    follow: &mut impl FnMut(Vec3, Spectrum, Scattered, &mut Sampler) -> Spectrum,
+    follow: &mut impl FnMut(Vec3, Spectrum, Option<Scattered>, &mut Sampler) -> Spectrum,
 ) -> Spectrum {
     let (m, k) = grid_shape(n);
     let (d_theta, d_phi) = (FRAC_PI_2 / m as f32, TAU / k as f32);
@@ -127,7 +146,7 @@ fn grid(
             let f = bsdf.eval(wo, wi, TransportMode::Radiance);
             if !f.is_black() {
                 let scattered = Scattered { pdf: 1.0 / (n as f32 * w), specular: false };
-                sum += follow(wi, f * w, scattered, sampler);
+                sum += follow(wi, f * w, Some(scattered), sampler);
             }
         }
     }

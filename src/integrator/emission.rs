@@ -41,5 +41,5 @@ pub fn escaped(scene: &Scene, settings: &Settings, d: Vec3, last: Option<Scatter
     }
     let le = env.radiance(d) * weight;
     check(NanCause::Emission, le);
-    if scene.features.volumes { le * transmittance(media.sigma_a(&scene.materials), f32::INFINITY) } else { le }
+    if scene.features.volumes { le * transmittance(media.sigma_t(&scene.materials), f32::INFINITY) } else { le }
 }

@@ -1,10 +1,17 @@
 //! The refracting volumes a path is inside, as an interface stack: which index of
 //! refraction lies on each side of an interface, and what absorbs along each segment.
 //! Crossing a volume's surface from its front pushes the volume, from its back removes it,
-//! so a liquid inside a glass sees the glass (not air) around it.
+//! so a liquid inside a glass sees the glass (not air) around it. A camera inside volumes
+//! starts with the stack a probe ray finds (`Media::containing`).
 
-use crate::scene::material::Material;
+use crate::medium::Volume;
+pub use crate::medium::transmittance;
+use crate::scene::{Scene, geometry::Ray, material::Material};
 use crate::spectrum::Spectrum;
+use glam::Vec3;
+
+/// Most surfaces a probe ray looks at.
+const PROBE_HITS: usize = 1024;
 
 /// Deepest nesting tracked; deeper entries are ignored (treated as not entered).
 const DEPTH: usize = 8;
@@ -44,22 +51,82 @@ impl Media {
         }
     }
 
-    /// Absorption coefficient of the innermost volume (zero outside every volume).
-    pub fn sigma_a(&self, materials: &[Material]) -> Spectrum {
-        let sigma = self.entries[..self.len].last().and_then(|&m| materials[m as usize].volume);
-        sigma.map_or(Spectrum::ZERO, Spectrum::from_rgb)
+    /// The volumes that contain `point`: a probe ray from it meets the back of each volume's
+    /// surface once more than its front. Walking out along the probe, the innermost volume
+    /// is left first; the stack lists them outermost first.
+    pub fn containing(scene: &Scene, point: Vec3) -> Self {
+        let mut media = Self::default();
+        if !scene.features.volumes {
+            return media;
+        }
+        let d = Vec3::new(0.267, 0.873, 0.408).normalize();
+        let mut ray = Ray { o: point, d, tmax: f32::INFINITY };
+        let (mut entered, mut inside) = (Vec::new(), Vec::new());
+        for _ in 0..PROBE_HITS {
+            let Some(hit) = scene.intersect(&ray, true, false) else { break };
+            let surface = scene.surface(&hit);
+            if scene.materials[surface.material as usize].is_volume() {
+                let front = surface.ng.dot(d) < 0.0;
+                match (front, entered.iter().rposition(|&m| m == surface.material)) {
+                    (true, _) => entered.push(surface.material),
+                    (false, Some(i)) => {
+                        entered.remove(i);
+                    }
+                    (false, None) => inside.push(surface.material),
+                }
+            }
+            let front = surface.ng.dot(d) < 0.0;
+            ray.o = scene.reflection_origin(&surface, !front, false, true);
+        }
+        for &m in inside.iter().rev() {
+            media.cross(m, true);
+        }
+        media
     }
-}
 
-/// Beer-Lambert transmittance exp(-sigma d), exactly 1 where sigma is 0 (even for d = inf).
-pub fn transmittance(sigma: Spectrum, distance: f32) -> Spectrum {
-    sigma.map(|s| if s > 0.0 { (-s * distance).exp() } else { 1.0 })
+    /// The medium of the innermost volume, if any.
+    pub fn volume(&self, materials: &[Material]) -> Option<Volume> {
+        self.entries[..self.len].last().and_then(|&m| materials[m as usize].volume)
+    }
+
+    /// Extinction coefficient of the innermost volume (zero outside every volume).
+    pub fn sigma_t(&self, materials: &[Material]) -> Spectrum {
+        self.volume(materials).map_or(Spectrum::ZERO, |v| v.sigma_t())
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use glam::Vec3;
+
+    #[test]
+    fn a_probe_finds_the_volumes_around_a_point_outermost_first() {
+        use crate::scene::{SceneDesc, shapes::uv_sphere};
+        let materials = vec![
+            Material::glass("outer", 1.5, Some(Vec3::ZERO)),
+            Material::glass("inner", 1.33, Some(Vec3::splat(0.5))),
+            Material::glass("beside", 1.2, Some(Vec3::ZERO)),
+        ];
+        let desc = SceneDesc {
+            meshes: vec![
+                uv_sphere(Vec3::ZERO, 2.0, 16, 32, false, 0),
+                uv_sphere(Vec3::ZERO, 1.0, 16, 32, false, 1),
+                uv_sphere(Vec3::new(0.0, 5.0, 0.0), 1.0, 16, 32, false, 2),
+            ],
+            materials: materials.clone(),
+            ..SceneDesc::default()
+        };
+        let scene = Scene::build(desc);
+        let mut m = Media::containing(&scene, Vec3::new(0.1, 0.0, 0.0));
+        assert_eq!(m.len, 2);
+        assert_eq!(m.sigma_t(&scene.materials), Spectrum::splat(0.5), "innermost: the liquid");
+        m.cross(1, false);
+        assert_eq!(m.outside_ior(&scene.materials, 0, false), 1.0);
+        let between = Media::containing(&scene, Vec3::new(1.5, 0.0, 0.0));
+        assert_eq!((between.len, between.entries[0]), (1, 0), "between the shells: only the outer");
+        assert_eq!(Media::containing(&scene, Vec3::new(0.0, 0.0, 9.0)).len, 0, "outside everything");
+    }
 
     #[test]
     fn nested_volumes_see_their_enclosing_index() {
@@ -72,12 +139,12 @@ mod tests {
         m.cross(0, true);
         assert_eq!(m.outside_ior(&materials, 1, true), 1.5);
         m.cross(1, true);
-        assert_eq!(m.sigma_a(&materials), Spectrum::splat(0.5));
+        assert_eq!(m.sigma_t(&materials), Spectrum::splat(0.5));
         assert_eq!(m.outside_ior(&materials, 1, false), 1.5);
         m.cross(1, false);
         assert_eq!(m.outside_ior(&materials, 0, false), 1.0);
         m.cross(0, false);
-        assert_eq!(m.sigma_a(&materials), Spectrum::ZERO);
+        assert_eq!(m.sigma_t(&materials), Spectrum::ZERO);
         // Leaving a volume never entered (a camera inside glass) sees air outside.
         assert_eq!(m.outside_ior(&materials, 0, false), 1.0);
         assert_eq!(

@@ -2,8 +2,18 @@
 //! sampling (10.8) or uniformly, with explicit light sampling (10.9) or MIS, and Russian
 //! roulette on the throughput times eta^2 (pbrt-v4's etaScale), so that radiance scaled by
 //! refraction into glass does not end paths early.
+//!
+//! With `MEDIA` it is the volumetric path tracer (pbrt-v4's VolPathIntegrator for
+//! homogeneous media): inside a scattering volume a free-flight distance is sampled on every
+//! segment (`medium::sample_flight`); where light scatters, a light is sampled with the phase
+//! function and MIS, and the phase function gives the next direction. A scattering event
+//! counts as a bounce toward `max_depth` and meets Russian roulette like a surface vertex.
+//!
+//! Surfaces with a null lobe (index-matched interfaces, smooth thin walls passed straight
+//! through) are crossed without a bounce: the last real vertex stays the reference of the MIS
+//! weights, and the distance from it keeps adding up.
 
-use super::direct::sample_direct;
+use super::direct::{sample_direct, sample_medium};
 use super::emission::{emitted, escaped};
 use super::kernel::PathOutput;
 use super::media::{Media, transmittance};
@@ -12,39 +22,101 @@ use super::nan::{NanCause, check};
 use super::scatter::Sampling;
 use super::settings::{LightSampling, Settings};
 use super::vertex::Vertex;
+use crate::bsdf::LobeFlags;
 use crate::math::sampler::Sampler;
+use crate::medium::{Flight, sample_flight};
 use crate::scene::{Scene, geometry::Ray};
 use crate::spectrum::Spectrum;
 
-/// Radiance along a camera ray by path tracing, and the rays it traced.
-pub fn radiance(scene: &Scene, settings: &Settings, mut ray: Ray, sampler: &mut Sampler) -> PathOutput {
+/// Most surfaces a path crosses without a bounce (guards against coincident null surfaces).
+const MAX_CROSSINGS: u32 = 256;
+
+/// Radiance along a camera ray starting in `media`, by path tracing, and the rays it traced.
+pub fn radiance<const MEDIA: bool>(
+    scene: &Scene,
+    settings: &Settings,
+    mut ray: Ray,
+    mut media: Media,
+    sampler: &mut Sampler,
+) -> PathOutput {
     let mut out = PathOutput::default();
     let mut throughput = Spectrum::ONE;
     let mut eta_scale = 1.0f32;
     let mut last: Option<Scattered> = None;
-    let mut depth = 0u32;
-    let mut media = Media::default();
+    // Distance from the last scattering vertex to the current ray's origin.
+    let mut travelled = 0.0f32;
+    let (mut depth, mut crossings) = (0u32, 0u32);
     let sampling = Sampling::new(settings.importance_sampling);
     let sample_lights = settings.light_sampling != LightSampling::Off && !scene.light_sampler.is_empty();
     loop {
         out.rays += 1;
-        let Some(hit) = scene.intersect(&ray, settings.watertight, depth == 0) else {
+        let hit = scene.intersect(&ray, settings.watertight, depth == 0);
+
+        // A scattering medium along the segment: sample where light scatters first.
+        if MEDIA && let Some(volume) = media.volume(&scene.materials).filter(|v| v.scatters()) {
+            let length = ray.d.length();
+            let t_max = hit.map_or(f32::INFINITY, |h| h.t * length);
+            let (u_channel, u) = (sampler.next_1d(), sampler.next_1d());
+            match sample_flight(volume.sigma_t(), volume.sigma_s(), t_max, u_channel, u) {
+                Flight::Scatter { t, weight } => {
+                    throughput *= weight;
+                    if depth == settings.max_depth {
+                        break;
+                    }
+                    let wo = -ray.d / length;
+                    let p = ray.o + ray.d * (t / length);
+                    let phase = volume.phase();
+                    if sample_lights {
+                        let direct = sample_medium(scene, settings, (p, wo), phase, media, sampler);
+                        check(NanCause::LightSample, direct.radiance);
+                        out.radiance += throughput * direct.radiance;
+                        out.rays += direct.shadow_ray as u32;
+                        out.shadow_rays += direct.shadow_ray as u32;
+                    }
+                    let next = phase.sample(wo, sampler.next_2d());
+                    last = Some(Scattered { pdf: next.pdf, specular: false });
+                    travelled = 0.0;
+                    ray = Ray { o: p, d: next.wi, tmax: f32::INFINITY };
+                    depth += 1;
+                    if !roulette(settings, depth, &mut throughput, eta_scale, sampler) {
+                        break;
+                    }
+                    continue;
+                }
+                Flight::Pass { weight } => throughput *= weight,
+            }
+        } else if let Some(hit) = hit
+            && scene.features.volumes
+        {
+            throughput *= transmittance(media.sigma_t(&scene.materials), hit.t * ray.d.length());
+        }
+        let Some(hit) = hit else {
             out.radiance += throughput * escaped(scene, settings, ray.d, last, &media);
             break;
         };
-        if scene.features.volumes {
-            throughput *= transmittance(media.sigma_a(&scene.materials), hit.t * ray.d.length());
-        }
         let surface = scene.surface(&hit);
 
         // Emission found by the path itself.
         if surface.ng.dot(ray.d) < 0.0 {
-            out.radiance += throughput * emitted(scene, settings, &surface, -ray.d, hit.t, last);
+            out.radiance += throughput * emitted(scene, settings, &surface, -ray.d, travelled + hit.t, last);
         }
-        if depth == settings.max_depth {
+        if depth == settings.max_depth && !scene.features.see_through {
             break;
         }
         let vertex = Vertex::new(scene, settings, surface, ray.d, media);
+        if depth == settings.max_depth {
+            // No bounce is left, but light passing straight through still goes on.
+            let Some(passed) = vertex.bsdf.null_transmission(vertex.wo) else { break };
+            crossings += 1;
+            if passed.is_black() || crossings > MAX_CROSSINGS {
+                break;
+            }
+            throughput *= passed;
+            travelled += hit.t;
+            media = vertex.media_after(scene, true);
+            ray = Ray { o: vertex.behind, d: ray.d, tmax: f32::INFINITY };
+            continue;
+        }
 
         // Light sampling: one shadow ray towards a light chosen by power.
         if sample_lights {
@@ -62,23 +134,39 @@ pub fn radiance(scene: &Scene, settings: &Settings, mut ray: Ray, sampler: &mut 
         check(NanCause::BsdfSample, bs.weight);
         let Some((d, origin, crosses)) = vertex.leave(bs.wi) else { break };
         throughput *= bs.weight;
+        media = vertex.media_after(scene, crosses);
+        ray = Ray { o: origin, d, tmax: f32::INFINITY };
+        if bs.flags.contains(LobeFlags::NULL) {
+            crossings += 1;
+            if crossings > MAX_CROSSINGS {
+                break;
+            }
+            travelled += hit.t;
+            continue;
+        }
         if bs.is_transmission() {
             eta_scale *= bs.eta * bs.eta;
         }
         last = Some(Scattered { pdf: bs.pdf, specular: bs.is_specular() });
-        media = vertex.media_after(scene, crosses);
-        ray = Ray { o: origin, d, tmax: f32::INFINITY };
+        travelled = 0.0;
         depth += 1;
-
-        // Termination: Russian roulette on the throughput, survival capped below 1.
-        let u_rr = sampler.next_1d();
-        if depth >= settings.rr_depth {
-            let survive = (throughput * eta_scale).max_element().min(0.95);
-            if u_rr >= survive {
-                break;
-            }
-            throughput /= survive;
+        if !roulette(settings, depth, &mut throughput, eta_scale, sampler) {
+            break;
         }
     }
     out
+}
+
+/// Russian roulette on the throughput times eta^2, survival capped below 1, from
+/// `rr_depth` bounces on; false if the path ends.
+fn roulette(settings: &Settings, depth: u32, throughput: &mut Spectrum, eta_scale: f32, sampler: &mut Sampler) -> bool {
+    let u_rr = sampler.next_1d();
+    if depth >= settings.rr_depth {
+        let survive = (*throughput * eta_scale).max_element().min(0.95);
+        if u_rr >= survive {
+            return false;
+        }
+        *throughput /= survive;
+    }
+    true
 }

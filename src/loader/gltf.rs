@@ -12,6 +12,7 @@
 use super::limits::{self, Attributes, Limits, PrimitiveShape, format_bytes};
 use super::resources::{self, Encoded, Tally};
 use super::{LoadError, Refusal, graph};
+use crate::medium::{Volume, phase::MAX_G};
 use crate::scene::{
     MeshDesc, SceneDesc,
     camera::Camera,
@@ -33,6 +34,7 @@ const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_ior",
     "KHR_materials_transmission",
     "KHR_materials_volume",
+    "KHR_materials_volume_scatter",
     "KHR_materials_clearcoat",
     "KHR_materials_sheen",
     "KHR_texture_transform",
@@ -661,6 +663,54 @@ fn factor(v: &Value, key: &str, default: f32) -> f32 {
     v.get(key).and_then(Value::as_f64).map_or(default, |f| f as f32)
 }
 
+/// The medium of KHR_materials_volume (extinction sigma_t = -ln(attenuationColor) /
+/// attenuationDistance) and KHR_materials_volume_scatter (single-scatter albedo from
+/// multiscatterColor, Henyey-Greenstein g = scatterAnisotropy). Out-of-range values are
+/// clamped with a warning naming the material: colours to [0, 1], |g| to 0.99, and a
+/// distance that is not positive and finite means no attenuation.
+fn convert_volume(
+    name: &str,
+    color: [f32; 3],
+    distance: f32,
+    scatter: Option<&Value>,
+    warnings: &mut Warnings,
+) -> Volume {
+    let colour = |key: &str, c: Vec3, warnings: &mut Warnings| {
+        let clamped = c.clamp(Vec3::ZERO, Vec3::ONE);
+        if clamped != c || !c.is_finite() {
+            warnings.add(format!("material \"{name}\": {key} {c} is outside [0, 1]: clamped"));
+        }
+        if c.is_finite() { clamped } else { Vec3::ZERO }
+    };
+    let attenuation = colour("attenuationColor", Vec3::from(color), warnings).max(Vec3::splat(1e-6));
+    let sigma_t = if distance.is_finite() && distance > 0.0 {
+        -attenuation.map(f32::ln) / distance
+    } else {
+        if !distance.is_infinite() {
+            warnings
+                .add(format!("material \"{name}\": attenuationDistance {distance} is not positive: no attenuation"));
+        }
+        Vec3::ZERO
+    };
+    let Some(scatter) = scatter else { return Volume::absorbing(sigma_t) };
+    let array = |key: &str| {
+        scatter
+            .get(key)
+            .and_then(Value::as_array)
+            .map(|a| Vec3::from_array([0, 1, 2].map(|i| a.get(i).and_then(Value::as_f64).unwrap_or(0.0) as f32)))
+    };
+    let multiscatter = colour("multiscatterColor", array("multiscatterColor").unwrap_or(Vec3::ZERO), warnings);
+    let g = scatter.get("scatterAnisotropy").and_then(Value::as_f64).unwrap_or(0.0) as f32;
+    let g = if g.is_finite() { g } else { 0.0 };
+    if g.abs() > MAX_G {
+        warnings.add(format!(
+            "material \"{name}\": scatterAnisotropy {g} is outside (-1, 1): clamped to {}",
+            g.clamp(-MAX_G, MAX_G)
+        ));
+    }
+    Volume { sigma_t, albedo: Volume::single_scatter_albedo(multiscatter), g: g.clamp(-MAX_G, MAX_G) }
+}
+
 fn convert_material(m: &gltf::Material, texture_count: usize, warnings: &mut Warnings) -> Material {
     let pbr = m.pbr_metallic_roughness();
     let [r, g, b, a] = pbr.base_color_factor();
@@ -702,11 +752,9 @@ fn convert_material(m: &gltf::Material, texture_count: usize, warnings: &mut War
         mat.transmission_tex = texture_ref(t.transmission_texture(), warnings);
     }
     if let Some(v) = m.volume().filter(|v| v.thickness_factor() > 0.0) {
-        // Beer-Lambert: attenuationColor is what remains after attenuationDistance.
-        let distance = v.attenuation_distance();
-        let color = Vec3::from(v.attenuation_color()).clamp(Vec3::splat(1e-6), Vec3::ONE);
-        let sigma = if distance.is_finite() && distance > 0.0 { -color.map(f32::ln) / distance } else { Vec3::ZERO };
-        mat.volume = Some(sigma);
+        let scatter = m.extension_value("KHR_materials_volume_scatter");
+        mat.volume =
+            Some(convert_volume(&mat.name, v.attenuation_color(), v.attenuation_distance(), scatter, warnings));
     }
     if let Some(c) = m.extension_value("KHR_materials_clearcoat") {
         mat.clearcoat = factor(c, "clearcoatFactor", 0.0);

@@ -3,9 +3,9 @@
 //! after every pass, and restarts at once when a new job bumps the generation.
 
 use crate::film::{Film, Tile};
-use crate::integrator::{Settings, sample_pixel, settings::InvalidSettings};
+use crate::integrator::{Integrator, Settings, View, sample_pixel, settings::InvalidSettings};
 use crate::memory::{Limits, format_bytes};
-use crate::scene::{Scene, camera::Camera, camera::RayGenerator};
+use crate::scene::{Scene, camera::Camera};
 use glam::{UVec2, Vec3};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -291,6 +291,12 @@ impl Drop for RenderSession {
 /// Checks the job's settings, and that its film fits in the memory limit before it is allocated.
 fn check_job(job: &Job, limits: &Limits) -> Result<(), SessionError> {
     job.settings.validate()?;
+    if job.settings.integrator == Integrator::Distribution && job.scene.features.media {
+        return Err(SessionError::Settings(InvalidSettings(format!(
+            "{} has a scattering medium, which distribution ray tracing does not simulate: use --integrator path",
+            job.scene.name
+        ))));
+    }
     let (width, height) = (job.settings.width, job.settings.height);
     let bytes = film_bytes(width, height);
     if bytes > limits.memory {
@@ -304,7 +310,7 @@ struct Active {
     job: Job,
     generation: u64,
     film: Film,
-    rays: RayGenerator,
+    view: View,
     spp: u32,
     pass_spp: u32,
     elapsed: Duration,
@@ -317,7 +323,7 @@ impl Active {
         let s = job.settings;
         Self {
             film: Film::new(s.width, s.height),
-            rays: job.camera.rays(s.width, s.height),
+            view: View::new(&job.scene, &job.camera, s.width, s.height),
             job,
             generation,
             spp: 0,
@@ -379,7 +385,7 @@ fn coordinate(shared: &Shared, pool: &rayon::ThreadPool) {
 struct Pass<'a> {
     scene: &'a Scene,
     settings: &'a Settings,
-    rays: &'a RayGenerator,
+    view: &'a View,
     first: u64,
     count: u32,
     current: &'a AtomicU64,
@@ -402,7 +408,7 @@ impl Pass<'_> {
                 let local = UVec2::new(lx, ly);
                 let pixel = tile.origin + local;
                 for i in 0..self.count as u64 {
-                    let out = sample_pixel(self.scene, self.settings, self.rays, pixel, self.first + i);
+                    let out = sample_pixel(self.scene, self.settings, self.view, pixel, self.first + i);
                     tile.add(local, out.radiance);
                     traced += out.rays as u64;
                 }
@@ -419,7 +425,7 @@ fn run_pass(shared: &Shared, pool: &rayon::ThreadPool, a: &mut Active) -> bool {
     let pass = Pass {
         scene: &a.job.scene,
         settings: &a.job.settings,
-        rays: &a.rays,
+        view: &a.view,
         first: a.spp as u64,
         count: a.pass_spp.min(remaining),
         current: &shared.generation,

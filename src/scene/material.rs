@@ -4,6 +4,7 @@
 use super::texture::{ColorSpace, Image, Texture};
 use super::{Features, Surface};
 use crate::bsdf::{Bsdf, Lambert, MetalRough, measured::MerlTable, sheen::MIN_SHEEN_ALPHA};
+use crate::medium::Volume;
 use crate::spectrum::Spectrum;
 use glam::{Affine2, Vec2, Vec3, Vec4, Vec4Swizzles};
 
@@ -98,9 +99,9 @@ pub struct Material {
     pub transmission: f32,
     /// Texture whose R channel scales `transmission`.
     pub transmission_tex: Option<TexRef>,
-    /// KHR_materials_volume: absorption coefficient per unit length inside the surface, from
-    /// attenuationColor and attenuationDistance; None for thin-walled materials.
-    pub volume: Option<Vec3>,
+    /// KHR_materials_volume (and _volume_scatter): the medium inside the surface, with
+    /// extinction from attenuationColor and attenuationDistance; None for thin-walled materials.
+    pub volume: Option<Volume>,
     /// KHR_materials_clearcoat factor.
     pub clearcoat: f32,
     /// Texture whose R channel scales `clearcoat`.
@@ -181,7 +182,13 @@ impl Material {
 
     /// A smooth glass of index `ior` (a refracting volume with absorption `sigma_a`, or
     /// thin-walled if None).
-    pub fn glass(name: &str, ior: f32, volume: Option<Vec3>) -> Self {
+    pub fn glass(name: &str, ior: f32, sigma_a: Option<Vec3>) -> Self {
+        Self::dielectric(name, ior, sigma_a.map(Volume::absorbing))
+    }
+
+    /// A smooth, clear dielectric boundary of index `ior` around `volume` (thin-walled if None);
+    /// with ior 1 it is index-matched: light crosses it unchanged.
+    pub fn dielectric(name: &str, ior: f32, volume: Option<Volume>) -> Self {
         Self { name: name.into(), metallic: 0.0, roughness: 0.0, transmission: 1.0, ior, volume, ..Self::default() }
     }
 
@@ -206,6 +213,11 @@ impl Material {
     /// Whether paths that cross the surface enter a refracting, absorbing volume.
     pub fn is_volume(&self) -> bool {
         self.is_transmissive() && self.volume.is_some()
+    }
+
+    /// Whether its volume scatters light (a participating medium).
+    pub fn is_scattering(&self) -> bool {
+        self.is_volume() && self.volume.is_some_and(|v| v.scatters())
     }
 
     /// Whether the material emits light.

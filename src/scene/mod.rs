@@ -44,6 +44,11 @@ pub struct Features {
     pub cutouts: bool,
     /// Light arrives from an environment (a map or a background colour).
     pub environment: bool,
+    /// Some volume scatters light (a participating medium): the volumetric path tracer runs.
+    pub media: bool,
+    /// Some surface transmits, so it may let light straight through (a thin wall, or an
+    /// index-matched interface): shadow rays test what they cross instead of stopping.
+    pub see_through: bool,
 }
 
 impl Features {
@@ -56,6 +61,8 @@ impl Features {
         volumes: true,
         cutouts: true,
         environment: true,
+        media: true,
+        see_through: true,
     };
 }
 
@@ -301,6 +308,8 @@ impl Scene {
             volumes: used.iter().any(|m| m.is_volume()),
             cutouts: used.iter().any(|m| m.is_cutout()),
             environment: self.environment.is_some(),
+            media: used.iter().any(|m| m.is_scattering()),
+            see_through: used.iter().any(|m| m.is_transmissive()),
         };
         if self.features.glossy {
             // Tabulate the GGX albedos the materials' roughnesses read here (on the loading
