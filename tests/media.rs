@@ -1,0 +1,288 @@
+//! Participating media: the Henyey-Greenstein sampler against its pdf (chi-square), exact
+//! transmittance through an index-matched absorbing box (camera outside and inside), a
+//! scattering furnace that must return the emitted radiance for every g and every sampling
+//! switch, an index-matched empty box that changes nothing and adds no bounce, and the three
+//! light-sampling modes agreeing on a fog-filled Cornell box; all deterministic across
+//! thread counts.
+
+mod common;
+
+use glam::{DVec3, UVec2, Vec3};
+use lucent::integrator::{LightSampling, Settings};
+use lucent::loader::builtin;
+use lucent::math::sampler::Sampler;
+use lucent::medium::{Volume, phase::HenyeyGreenstein};
+use lucent::render::Snapshot;
+use lucent::scene::{MeshDesc, Scene, SceneDesc, camera::Camera, material::Material, shapes};
+use std::f64::consts::PI;
+use std::sync::Arc;
+
+const SWITCHES: [(bool, LightSampling); 6] = [
+    (true, LightSampling::Off),
+    (true, LightSampling::Explicit),
+    (true, LightSampling::Mis),
+    (false, LightSampling::Off),
+    (false, LightSampling::Explicit),
+    (false, LightSampling::Mis),
+];
+
+#[test]
+fn henyey_greenstein_sampling_matches_its_pdf() {
+    let (theta_bins, phi_bins, samples) = (32usize, 32usize, 200_000usize);
+    let (dt, dp) = (PI / theta_bins as f64, 2.0 * PI / phi_bins as f64);
+    let wo = Vec3::new(0.3, -0.5, 0.81).normalize();
+    let frame = lucent::math::frame::Frame::from_normal(-wo);
+    let gs = [-0.9f32, -0.3, 0.0, 0.3, 0.9];
+    let alpha = 1.0 - (1.0 - 0.01f64).powf(1.0 / gs.len() as f64);
+    for (k, g) in gs.into_iter().enumerate() {
+        let hg = HenyeyGreenstein { g };
+        let mut sampler = Sampler::new(UVec2::new(3, k as u32), 0, 17);
+        let mut observed = vec![0.0f64; theta_bins * phi_bins + 1];
+        for _ in 0..samples {
+            let s = hg.sample(wo, sampler.next_2d());
+            assert!(
+                (s.pdf - hg.eval(wo, s.wi)).abs() <= 1e-3 * s.pdf,
+                "g {g}: pdf {} vs eval {}",
+                s.pdf,
+                hg.eval(wo, s.wi)
+            );
+            // Angles about the direction light travelled (-wo), so forward scattering is theta 0.
+            let local = frame.to_local(-s.wi);
+            let theta = (local.z as f64).clamp(-1.0, 1.0).acos();
+            let phi = (local.y as f64).atan2(local.x as f64).rem_euclid(2.0 * PI);
+            let (i, j) = (((theta / dt) as usize).min(theta_bins - 1), ((phi / dp) as usize).min(phi_bins - 1));
+            observed[i * phi_bins + j] += 1.0;
+        }
+        let expected = common::expected_counts((theta_bins, phi_bins), (dt, dp), 6, samples, |theta, phi| {
+            let local =
+                Vec3::new((theta.sin() * phi.cos()) as f32, (theta.sin() * phi.sin()) as f32, theta.cos() as f32);
+            hg.eval(wo, -frame.to_world(local)) as f64
+        });
+        let total: f64 = expected[..theta_bins * phi_bins].iter().sum::<f64>() / samples as f64;
+        assert!((total - 1.0).abs() < 2e-3, "g {g}: the pdf integrates to {total}");
+        let p = common::chi2_p_value(&observed, &expected);
+        assert!(p > alpha, "g {g}: chi-square p = {p:.2e}");
+    }
+}
+
+#[test]
+fn a_wrong_anisotropy_is_rejected() {
+    // The test's power: samples of g = 0.3 judged against g = 0.
+    let (bins, samples) = (32usize, 200_000usize);
+    let wo = Vec3::Z;
+    let (hg, wrong) = (HenyeyGreenstein { g: 0.3 }, HenyeyGreenstein { g: 0.0 });
+    let mut sampler = Sampler::new(UVec2::ZERO, 0, 5);
+    let mut observed = vec![0.0f64; bins + 1];
+    for _ in 0..samples {
+        let s = hg.sample(wo, sampler.next_2d());
+        let theta = ((-s.wi).dot(wo) as f64).clamp(-1.0, 1.0).acos();
+        observed[((theta / (PI / bins as f64)) as usize).min(bins - 1)] += 1.0;
+    }
+    let expected = common::expected_counts((bins, 1), (PI / bins as f64, 2.0 * PI), 8, samples, |theta, _| {
+        wrong.eval(wo, -Vec3::new(theta.sin() as f32, 0.0, theta.cos() as f32)) as f64
+    });
+    assert!(common::chi2_p_value(&observed, &expected) < 1e-6);
+}
+
+/// An emitter of radiance `le` facing +z at z = `z`, 4 units wide.
+fn emitter(z: f32, le: Vec3, material: u32) -> (MeshDesc, Material) {
+    let mesh = MeshDesc {
+        name: "lamp".into(),
+        positions: vec![
+            Vec3::new(-2.0, -2.0, z),
+            Vec3::new(2.0, -2.0, z),
+            Vec3::new(2.0, 2.0, z),
+            Vec3::new(-2.0, 2.0, z),
+        ],
+        indices: vec![0, 1, 2, 0, 2, 3],
+        material,
+        ..MeshDesc::default()
+    };
+    (mesh, Material { emissive: le, ..Material::lambert("lamp", Vec3::ZERO) })
+}
+
+/// The image of an emitter behind an index-matched box filled with an absorbing medium.
+fn through_absorber(box_min_z: f32, box_max_z: f32, sigma: Vec3, settings: Settings) -> Arc<Snapshot> {
+    let le = Vec3::new(2.0, 3.0, 4.0);
+    let (lamp, lamp_material) = emitter(-3.0, le, 0);
+    let absorber = Material::dielectric("ink", 1.0, Some(Volume::absorbing(sigma)));
+    let desc = SceneDesc {
+        meshes: vec![lamp, shapes::cuboid(Vec3::new(-1.0, -1.0, box_min_z), Vec3::new(1.0, 1.0, box_max_z), false, 1)],
+        materials: vec![lamp_material, absorber],
+        ..SceneDesc::default()
+    };
+    let scene = Arc::new(Scene::build(desc));
+    // A narrow view: every ray crosses the box within 1e-6 of its thickness.
+    let camera = Camera::look_at(Vec3::ZERO, Vec3::new(0.0, 0.0, -1.0), 1e-3);
+    common::render(&scene, camera, settings, None)
+}
+
+#[test]
+fn an_index_matched_absorbing_box_transmits_exactly_le_exp_minus_sigma_d() {
+    let sigma = Vec3::new(0.2, 0.9, 2.5);
+    let le = Vec3::new(2.0, 3.0, 4.0);
+    for (label, (z0, z1), d) in [("camera outside", (-2.0, -1.0), 1.0f32), ("camera inside", (-2.0, 1.0), 2.0)] {
+        for (importance, lights) in SWITCHES {
+            let s = Settings {
+                width: 8,
+                height: 8,
+                importance_sampling: importance,
+                light_sampling: lights,
+                target_spp: Some(4),
+                ..Settings::default()
+            };
+            let snap = through_absorber(z0, z1, sigma, s);
+            let expected = le * (-sigma * d).exp();
+            for p in &snap.mean {
+                assert!(
+                    ((*p - expected) / expected).abs().max_element() < 1e-5,
+                    "{label}, importance {importance}, {lights:?}: {p} vs {expected}"
+                );
+            }
+        }
+    }
+}
+
+/// Asserts every channel of the image mean equals `expected` by a z-test on the renderer's
+/// own variance estimates.
+fn assert_mean(snap: &Snapshot, expected: f64, z_max: f64, label: &str) {
+    assert_eq!(snap.rejected, 0, "{label}: NaN/Inf samples");
+    let n = snap.mean.len() as f64;
+    let mean = snap.mean.iter().map(|p| p.as_dvec3()).sum::<DVec3>() / n;
+    let se = snap.variance.iter().map(|v| v.as_dvec3()).sum::<DVec3>().powf(0.5) / n;
+    for c in 0..3 {
+        let z = (mean[c] - expected) / se[c];
+        assert!(z.abs() < z_max, "{label}: channel {c} mean {:.5} vs {expected} (z = {z:.2})", mean[c]);
+    }
+}
+
+#[test]
+fn a_scattering_medium_in_an_emitting_enclosure_returns_the_emitted_radiance() {
+    // L = Le everywhere inside a closed emitter whose inside is filled with a medium that
+    // scatters and does not absorb: in-scattering exactly replaces what extinction removes.
+    let le = 0.7f32;
+    let z_max = common::sidak_z(1e-3, 3 * SWITCHES.len() * 3);
+    for g in [-0.5f32, 0.0, 0.8] {
+        let wall = Material { emissive: Vec3::splat(le), ..Material::lambert("wall", Vec3::ZERO) };
+        let fog = Volume { sigma_t: Vec3::new(1.5, 2.0, 3.0), albedo: Vec3::ONE, g };
+        let mut inner = shapes::uv_sphere(Vec3::ZERO, 0.95, 12, 24, false, 1);
+        inner.normals = None;
+        let mut outer = shapes::uv_sphere(Vec3::ZERO, 1.0, 12, 24, true, 0);
+        outer.normals = None;
+        let desc = SceneDesc {
+            meshes: vec![outer, inner],
+            materials: vec![wall, Material::dielectric("fog", 1.0, Some(fog))],
+            ..SceneDesc::default()
+        };
+        let scene = Arc::new(Scene::build(desc));
+        assert!(scene.features.media);
+        let camera = Camera::look_at(Vec3::new(0.1, 0.0, 0.2), Vec3::new(0.3, 0.2, -1.0), 1.2);
+        for (importance, lights) in SWITCHES {
+            let settings = Settings {
+                width: 16,
+                height: 16,
+                max_depth: u32::MAX,
+                importance_sampling: importance,
+                light_sampling: lights,
+                target_spp: Some(64),
+                ..Settings::default()
+            };
+            let snap = common::render(&scene, camera, settings, None);
+            assert_mean(&snap, le as f64, z_max, &format!("g {g}, importance {importance}, lights {lights:?}"));
+        }
+    }
+}
+
+/// Per-block means and variances of the mean of 8x8-pixel blocks.
+fn blocks(s: &Snapshot) -> Vec<(DVec3, DVec3)> {
+    let per_side = s.width / 8;
+    let mut out = vec![(DVec3::ZERO, DVec3::ZERO); (per_side * per_side) as usize];
+    for y in 0..s.height {
+        for x in 0..s.width {
+            let i = (y * s.width + x) as usize;
+            let b = &mut out[((y / 8) * per_side + x / 8) as usize];
+            b.0 += s.mean[i].as_dvec3() / 64.0;
+            b.1 += s.variance[i].as_dvec3() / (64.0 * 64.0);
+        }
+    }
+    out
+}
+
+/// Asserts the block means of `test` agree with `reference` (z-tests at `z_max`).
+fn assert_blocks_agree(test: &Snapshot, reference: &Snapshot, z_max: f64, label: &str) {
+    assert_eq!(test.rejected, 0, "{label}: NaN/Inf samples");
+    for (b, (t, r)) in blocks(test).iter().zip(blocks(reference)).enumerate() {
+        for c in 0..3 {
+            let se = (t.1[c] + r.1[c]).sqrt();
+            if se == 0.0 {
+                assert_eq!(t.0[c], r.0[c], "{label}: block {b} channel {c}: noiseless blocks differ");
+                continue;
+            }
+            let z = (t.0[c] - r.0[c]) / se;
+            assert!(z.abs() < z_max, "{label}: block {b} channel {c}: {:.4} vs {:.4} (z = {z:.2})", t.0[c], r.0[c]);
+        }
+    }
+}
+
+/// The Cornell box with an index-matched box of `volume` (None: empty, a thin wall of ior 1)
+/// filling its lower part.
+fn cornell_with_box(volume: Option<Volume>) -> Arc<Scene> {
+    let mut desc = builtin::cornell_box();
+    let id = desc.materials.len() as u32;
+    desc.materials.push(Material::dielectric("matched", 1.0, volume));
+    let (lo, hi) = desc
+        .meshes
+        .iter()
+        .flat_map(|m| &m.positions)
+        .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &p| (lo.min(p), hi.max(p)));
+    let size = hi - lo;
+    let (min, max) = (lo + size * Vec3::new(0.05, 0.02, 0.1), lo + size * Vec3::new(0.95, 0.7, 0.9));
+    desc.meshes.push(shapes::cuboid(min, max, false, id));
+    Arc::new(Scene::build(desc))
+}
+
+fn cornell_settings(lights: LightSampling, seed: u64, spp: u32, max_depth: u32) -> Settings {
+    Settings {
+        width: 48,
+        height: 48,
+        light_sampling: lights,
+        seed,
+        target_spp: Some(spp),
+        max_depth,
+        ..Settings::default()
+    }
+}
+
+#[test]
+fn an_index_matched_empty_box_changes_nothing_and_adds_no_bounce() {
+    let plain = Arc::new(Scene::build(builtin::cornell_box()));
+    let boxed = cornell_with_box(None);
+    let camera = plain.default_camera(1.0);
+    let z_max = common::sidak_z(1e-3, 2 * 36 * 3);
+    // With one bounce the floor inside the box is lit only if crossing the box is free.
+    for max_depth in [1, 7] {
+        let a = common::render(&plain, camera, cornell_settings(LightSampling::Mis, 1, 64, max_depth), None);
+        let b = common::render(&boxed, camera, cornell_settings(LightSampling::Mis, 2, 64, max_depth), None);
+        assert_blocks_agree(&b, &a, z_max, &format!("index-matched empty box, max depth {max_depth}"));
+    }
+}
+
+#[test]
+fn light_sampling_modes_agree_in_fog_and_media_renders_are_deterministic() {
+    let fog = Volume { sigma_t: Vec3::new(2.0, 2.5, 3.0), albedo: Vec3::splat(0.8), g: 0.4 };
+    let scene = cornell_with_box(Some(fog));
+    assert!(scene.features.media);
+    let camera = scene.default_camera(1.0);
+    let reference = common::render(&scene, camera, cornell_settings(LightSampling::Mis, 1, 256, 7), None);
+    let z_max = common::sidak_z(1e-3, 2 * 36 * 3);
+    for (lights, spp) in [(LightSampling::Explicit, 256), (LightSampling::Off, 1024)] {
+        let snap = common::render(&scene, camera, cornell_settings(lights, 2, spp, 7), None);
+        assert_blocks_agree(&snap, &reference, z_max, &format!("fog, lights {lights:?}"));
+    }
+    let s = cornell_settings(LightSampling::Mis, 3, 4, 7);
+    let one = common::render(&scene, camera, s, Some(1));
+    let many = common::render(&scene, camera, s, Some(3));
+    assert!(one.mean == many.mean, "media renders differ between 1 and 3 threads");
+    let lit = one.mean.iter().map(|p| p.max_element()).sum::<f32>();
+    assert!(lit > 0.0, "the fog box is lit");
+}
