@@ -186,6 +186,21 @@ fn sampling_routines_match_their_pdfs() {
         ..MetalRough::default()
     };
     cases.push(("every lobe at once".into(), Bsdf::MetalRough(everything), from_angles(0.8), Sampling::Importance));
+    // KHR_materials_diffuse_transmission: the diffuse base's share sent to the other side,
+    // under a rough and a smooth specular layer, and beside rough refraction.
+    for (roughness, transmission, theta_o) in [(0.5f32, 0.0f32, 0.3f32), (0.0, 0.0, 1.2), (0.6, 0.4, 0.8)] {
+        let dt = MetalRough {
+            base: rgb(0.8, 0.5, 0.3),
+            alpha: alpha(roughness),
+            transmission,
+            diffuse_transmission: 0.6,
+            diffuse_transmission_color: rgb(0.3, 0.9, 0.5),
+            ..MetalRough::default()
+        };
+        let label =
+            format!("diffuse transmission, roughness {roughness}, transmission {transmission}, theta_o {theta_o}");
+        cases.push((label, Bsdf::MetalRough(dt), from_angles(theta_o), Sampling::Importance));
+    }
     let measured = MerlTable::read(&common::merl_bytes(common::analytic_brdf)).unwrap();
     for theta_o in [0.3f32, 1.0, 1.4] {
         let label = format!("measured (MERL table of a glossy BRDF), theta_o {theta_o}");
@@ -280,6 +295,12 @@ fn bsdfs_conserve_energy_and_are_reciprocal() {
             Bsdf::MetalRough(layered(1.0, 0.0)),
             Bsdf::MetalRough(layered(1.0, 1.0)),
             Bsdf::MetalRough(MetalRough { transmission: 0.5, eta: 1.2, thin: false, ..layered(0.5, 0.5) }),
+            Bsdf::MetalRough(MetalRough {
+                diffuse_transmission: 1.0,
+                diffuse_transmission_color: Spectrum::ONE,
+                ..layered(0.5, 0.5)
+            }),
+            Bsdf::MetalRough(MetalRough { diffuse_transmission: 1.0, specular: 0.0, ..MetalRough::default() }),
         ] {
             for theta_o in [0.1f32, 0.8, 1.3, 1.5, 1.55] {
                 let (mean, se) = albedo(&bsdf, from_angles(theta_o), 20_000, &mut sampler);

@@ -3,7 +3,11 @@
 //! _clearcoat and _sheen. Layered top to bottom:
 //!
 //!   sheen  over  clearcoat  over  mix(dielectric, metal, metallic),
-//!   dielectric = mix(diffuse base under a GGX specular layer, rough interface, transmission)
+//!   dielectric = mix(diffuse base under a GGX specular layer, rough interface, transmission),
+//!   diffuse base = mix(Lambert reflection, Lambert transmission, diffuseTransmission)
+//!
+//! (KHR_materials_diffuse_transmission: the base's diffuse lobe transmits its share to the
+//! other side, cosine-distributed, tinted by diffuseTransmissionColor.)
 //!
 //! Below `SMOOTH_ALPHA` the base's GGX lobes (metal, dielectric specular, the interface)
 //! and, separately, the clearcoat are delta lobes. Their sampling aggregates what leaves in
@@ -64,6 +68,10 @@ pub struct MetalRough {
     pub sheen: Spectrum,
     /// Sheen alpha (sheenRoughness^2).
     pub sheen_alpha: f32,
+    /// KHR_materials_diffuse_transmission factor: share of the diffuse base transmitted.
+    pub diffuse_transmission: f32,
+    /// KHR_materials_diffuse_transmission colour tinting the transmitted diffuse light.
+    pub diffuse_transmission_color: Spectrum,
 }
 
 impl Default for MetalRough {
@@ -83,6 +91,8 @@ impl Default for MetalRough {
             clearcoat_alpha: 1.0,
             sheen: Spectrum::ZERO,
             sheen_alpha: 0.25,
+            diffuse_transmission: 0.0,
+            diffuse_transmission_color: Spectrum::ONE,
         }
     }
 }
@@ -117,6 +127,8 @@ struct Lobes {
     clearcoat: f32,
     /// The transmitting interface.
     interface: f32,
+    /// Cosine hemisphere on the other side (diffuse transmission).
+    diffuse_transmission: f32,
 }
 
 /// The delta lobes at one wo: the probabilities that `sample` picks the mirror direction
@@ -172,12 +184,22 @@ impl MetalRough {
 
     /// Whether any light passes to the other side.
     pub fn transmits(&self) -> bool {
+        self.refracts() || self.diffuse_transmits()
+    }
+
+    /// Whether the specular interface transmits (KHR_materials_transmission).
+    fn refracts(&self) -> bool {
         self.transmission > 0.0 && self.metallic < 1.0
+    }
+
+    /// Whether the diffuse base transmits (KHR_materials_diffuse_transmission).
+    fn diffuse_transmits(&self) -> bool {
+        self.diffuse_transmission > 0.0 && self.transmission < 1.0 && self.metallic < 1.0
     }
 
     /// Relative index crossed by light the interface transmits (1 through a thin wall).
     pub fn crossed_eta(&self) -> f32 {
-        self.interface().crossed_eta()
+        if self.refracts() { self.interface().crossed_eta() } else { 1.0 }
     }
 
     /// The lobes present: a delta where a GGX lobe is smooth, glossy otherwise.
@@ -186,9 +208,12 @@ impl MetalRough {
         if self.transmits() {
             flags |= LobeFlags::TRANSMISSION;
         }
+        if self.diffuse_transmits() {
+            flags |= LobeFlags::DIFFUSE;
+        }
         let diffuse_base = self.metallic < 1.0 && self.transmission < 1.0;
         let opaque_specular = self.metallic > 0.0 || (self.specular > 0.0 && self.transmission < 1.0);
-        let interface = self.transmits();
+        let interface = self.refracts();
         if diffuse_base || self.sheen.max_element() > 0.0 || (opaque_specular && !self.smooth()) {
             flags |= LobeFlags::DIFFUSE;
         }
@@ -281,12 +306,25 @@ impl MetalRough {
             let specular = (schlick(self.dielectric_f0, voh) * single
                 + multiple_scattering_fresnel(self.dielectric_f0, a_avg) * ms)
                 * self.specular;
-            let diffuse = self.base * (FRAC_1_PI * wi.z * self.base_weight(wo.z, wi.z));
+            let reflected = 1.0 - self.diffuse_transmission;
+            let diffuse = self.base * (FRAC_1_PI * wi.z * self.base_weight(wo.z, wi.z) * reflected);
             (diffuse + specular) * (1.0 - self.transmission)
         } else {
             Spectrum::ZERO
         };
         dielectric * (1.0 - self.metallic) + metal * self.metallic
+    }
+
+    /// The diffuse base's transmission towards `wi` below the surface (before the layers
+    /// above it), f |cos theta_i|, and the density of `sample` choosing it.
+    fn diffuse_transmitted(&self, p: &Lobes, wo: Vec3, wi: Vec3) -> (Spectrum, f32) {
+        if !self.diffuse_transmits() {
+            return (Spectrum::ZERO, 0.0);
+        }
+        let mu_i = -wi.z;
+        let share = self.diffuse_transmission * (1.0 - self.transmission) * (1.0 - self.metallic);
+        let f = self.diffuse_transmission_color * (FRAC_1_PI * mu_i * self.base_weight(wo.z, mu_i) * share);
+        (f, p.diffuse_transmission * warp::cos_hemisphere_pdf(mu_i))
     }
 
     /// f |cos theta_i| of the continuous lobes and the density of `sample` choosing them,
@@ -302,7 +340,7 @@ impl MetalRough {
 
     fn eval_pdf_with(&self, p: &Lobes, wo: Vec3, wi: Vec3, mode: TransportMode) -> (Spectrum, f32) {
         let (sheen_w, coat_w) = self.layer_weights(wo.z, wi.z.abs());
-        let (interface, interface_pdf) = if self.transmits() && !self.smooth_interface() {
+        let (interface, interface_pdf) = if self.refracts() && !self.smooth_interface() {
             let tint = if wi.z > 0.0 { self.specular_tint } else { self.base };
             let (f, pdf) = self.interface().eval_pdf(wo, wi, mode);
             (tint * (f * self.transmission * (1.0 - self.metallic)), p.interface * pdf)
@@ -310,7 +348,8 @@ impl MetalRough {
             (Spectrum::ZERO, 0.0)
         };
         if wi.z <= 0.0 {
-            return (interface * (sheen_w * coat_w), interface_pdf);
+            let (diffuse, diffuse_pdf) = self.diffuse_transmitted(p, wo, wi);
+            return ((interface + diffuse) * (sheen_w * coat_w), interface_pdf + diffuse_pdf);
         }
         let h = (wo + wi).normalize_or_zero();
         if h == Vec3::ZERO {
@@ -341,7 +380,8 @@ impl MetalRough {
         let sheen = self.sheen_albedo(mu);
         let coat = self.clearcoat_albedo(mu);
         let below = (1.0 - sheen) * (1.0 - coat);
-        let (m, tr) = (self.metallic, if self.transmits() { self.transmission } else { 0.0 });
+        let (m, tr) = (self.metallic, if self.refracts() { self.transmission } else { 0.0 });
+        let dt = if self.diffuse_transmits() { self.diffuse_transmission } else { 0.0 };
         let (ms, a_avg) = self.multiple_scattering(mu, mu);
         let ms_albedo = if ms > 0.0 { 1.0 - ggx_albedo(mu, self.roughness(), 1.0) } else { 0.0 };
         let metal = schlick(self.base, mu).luminance();
@@ -350,19 +390,22 @@ impl MetalRough {
         let (layer, _) = self.layer_albedo(mu, self.dielectric_f0.max_element());
         let diffuse = (1.0 - layer).max(0.0) * self.base.luminance();
         let specular = below * (m * metal + (1.0 - m) * (1.0 - tr) * f_d);
-        let cosine = sheen + below * (m * metal_ms + (1.0 - m) * (1.0 - tr) * diffuse);
+        let cosine = sheen + below * (m * metal_ms + (1.0 - m) * (1.0 - tr) * diffuse * (1.0 - dt));
+        let diffuse_transmission =
+            below * (1.0 - m) * (1.0 - tr) * dt * (1.0 - layer).max(0.0) * self.diffuse_transmission_color.luminance();
         let clearcoat = (1.0 - sheen) * coat;
         let interface = below * (1.0 - m) * tr * self.base.luminance().max(f_d);
-        let total = specular + cosine + clearcoat + interface;
+        let total = specular + cosine + clearcoat + interface + diffuse_transmission;
         if total > 0.0 && total.is_finite() {
             Lobes {
                 specular: specular / total,
                 cosine: cosine / total,
                 clearcoat: clearcoat / total,
                 interface: interface / total,
+                diffuse_transmission: diffuse_transmission / total,
             }
         } else {
-            Lobes { specular: 0.0, cosine: 1.0, clearcoat: 0.0, interface: 0.0 }
+            Lobes { specular: 0.0, cosine: 1.0, clearcoat: 0.0, interface: 0.0, diffuse_transmission: 0.0 }
         }
     }
 
@@ -396,7 +439,7 @@ impl MetalRough {
         let mu = wo.z;
         let (sheen_w, coat_w) = self.layer_weights(mu, mu);
         let mut base = Spectrum::ZERO;
-        let (m, tr) = (self.metallic, if self.transmits() { self.transmission } else { 0.0 });
+        let (m, tr) = (self.metallic, if self.refracts() { self.transmission } else { 0.0 });
         if self.smooth() {
             let dielectric = schlick(self.dielectric_f0, mu) * (self.specular * (1.0 - tr));
             base = schlick(self.base, mu) * m + dielectric * (1.0 - m);
@@ -420,7 +463,7 @@ impl MetalRough {
 
     /// What the null lobe passes straight through towards -wo, if there is one.
     pub fn null_transmission(&self, wo: Vec3) -> Option<Spectrum> {
-        (self.transmits() && self.straight()).then(|| {
+        (self.refracts() && self.straight()).then(|| {
             let r = self.interface().reflectance(wo.z);
             self.delta_transmission(wo, -wo, r, TransportMode::Radiance)
         })
@@ -459,6 +502,9 @@ impl MetalRough {
             (above(reflect(wo, self.ggx().sample_visible_normal(wo, u)))?, true)
         } else if x < p_interface + p_specular + p_coat {
             (above(reflect(wo, Ggx { alpha: self.clearcoat_alpha }.sample_visible_normal(wo, u)))?, true)
+        } else if x < p_interface + p_specular + p_coat + p.diffuse_transmission {
+            let w = warp::cos_hemisphere(u);
+            ((w.z > 0.0).then_some(Vec3::new(w.x, w.y, -w.z))?, false)
         } else {
             (above(warp::cos_hemisphere(u))?, false)
         };
@@ -466,7 +512,7 @@ impl MetalRough {
         let (f, pdf) = self.eval_pdf_with(&p, wo, wi, mode);
         let side = if transmitted { LobeFlags::TRANSMISSION } else { LobeFlags::REFLECTION };
         let flags = side | if glossy { LobeFlags::GLOSSY } else { LobeFlags::DIFFUSE };
-        let eta = if transmitted { self.interface().crossed_eta() } else { 1.0 };
+        let eta = if transmitted && glossy { self.interface().crossed_eta() } else { 1.0 };
         Some(BsdfSample { wi, weight: f / pdf, pdf, flags, eta })
     }
 }

@@ -36,6 +36,7 @@ const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_volume",
     "KHR_materials_volume_scatter",
     "KHR_materials_clearcoat",
+    "KHR_materials_diffuse_transmission",
     "KHR_materials_sheen",
     "KHR_texture_transform",
     "KHR_lights_punctual",
@@ -755,6 +756,17 @@ fn convert_material(m: &gltf::Material, texture_count: usize, warnings: &mut War
         let scatter = m.extension_value("KHR_materials_volume_scatter");
         mat.volume =
             Some(convert_volume(&mat.name, v.attenuation_color(), v.attenuation_distance(), scatter, warnings));
+    }
+    if let Some(t) = m.extension_value("KHR_materials_diffuse_transmission") {
+        mat.diffuse_transmission = factor(t, "diffuseTransmissionFactor", 0.0).clamp(0.0, 1.0);
+        mat.diffuse_transmission_tex = texture_json(t.get("diffuseTransmissionTexture"), texture_count, warnings);
+        let colour = t
+            .get("diffuseTransmissionColorFactor")
+            .and_then(Value::as_array)
+            .map(|a| Vec3::from_array([0, 1, 2].map(|i| a.get(i).and_then(Value::as_f64).unwrap_or(1.0) as f32)));
+        mat.diffuse_transmission_color = colour.unwrap_or(Vec3::ONE).clamp(Vec3::ZERO, Vec3::ONE);
+        mat.diffuse_transmission_color_tex =
+            texture_json(t.get("diffuseTransmissionColorTexture"), texture_count, warnings);
     }
     if let Some(c) = m.extension_value("KHR_materials_clearcoat") {
         mat.clearcoat = factor(c, "clearcoatFactor", 0.0);

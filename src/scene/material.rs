@@ -118,6 +118,14 @@ pub struct Material {
     pub sheen_roughness: f32,
     /// Texture whose A channel scales `sheen_roughness`.
     pub sheen_roughness_tex: Option<TexRef>,
+    /// KHR_materials_diffuse_transmission factor: share of the diffuse base transmitted.
+    pub diffuse_transmission: f32,
+    /// Texture whose A channel scales `diffuse_transmission`.
+    pub diffuse_transmission_tex: Option<TexRef>,
+    /// Colour of the transmitted diffuse light (linear).
+    pub diffuse_transmission_color: Vec3,
+    /// sRGB texture scaling `diffuse_transmission_color`.
+    pub diffuse_transmission_color_tex: Option<TexRef>,
     /// A measured BRDF replacing every lobe above (assigned by a sidecar file).
     pub measured: Option<Measured>,
 }
@@ -169,6 +177,10 @@ impl Default for Material {
             sheen_color_tex: None,
             sheen_roughness: 0.0,
             sheen_roughness_tex: None,
+            diffuse_transmission: 0.0,
+            diffuse_transmission_tex: None,
+            diffuse_transmission_color: Vec3::ONE,
+            diffuse_transmission_color_tex: None,
             measured: None,
         }
     }
@@ -206,7 +218,7 @@ impl Material {
     /// reflect.
     pub fn is_transmissive(&self) -> bool {
         self.measured.is_none()
-            && self.transmission > 0.0
+            && (self.transmission > 0.0 || self.diffuse_transmission > 0.0)
             && (self.metallic < 1.0 || self.metallic_roughness_tex.is_some())
     }
 
@@ -231,8 +243,10 @@ impl Material {
         self.alpha_mode != AlphaMode::Opaque || !self.double_sided
     }
 
-    fn textures(&self) -> [Option<TexRef>; 11] {
+    fn textures(&self) -> [Option<TexRef>; 13] {
         [
+            self.diffuse_transmission_tex,
+            self.diffuse_transmission_color_tex,
             self.base_color_tex,
             self.metallic_roughness_tex,
             self.normal_tex,
@@ -300,6 +314,10 @@ impl Material {
         let sheen = self.sheen_color * lookup(self.sheen_color_tex, ColorSpace::Srgb).map_or(Vec3::ONE, |t| t.xyz());
         let sheen_roughness =
             self.sheen_roughness * lookup(self.sheen_roughness_tex, ColorSpace::Linear).map_or(1.0, |t| t.w);
+        let diffuse_transmission =
+            self.diffuse_transmission * lookup(self.diffuse_transmission_tex, ColorSpace::Linear).map_or(1.0, |t| t.w);
+        let diffuse_transmission_color = self.diffuse_transmission_color
+            * lookup(self.diffuse_transmission_color_tex, ColorSpace::Srgb).map_or(Vec3::ONE, |t| t.xyz());
         let f0 = ((self.ior - 1.0) / (self.ior + 1.0)).powi(2);
         let ior = self.ior.max(1e-3);
         let eta = match (self.volume, front) {
@@ -322,6 +340,8 @@ impl Material {
             clearcoat_alpha: alpha(clearcoat_roughness),
             sheen: Spectrum::from_rgb(sheen.clamp(Vec3::ZERO, Vec3::ONE)),
             sheen_alpha: (sheen_roughness * sheen_roughness).clamp(MIN_SHEEN_ALPHA, 1.0),
+            diffuse_transmission: diffuse_transmission.clamp(0.0, 1.0),
+            diffuse_transmission_color: Spectrum::from_rgb(diffuse_transmission_color.clamp(Vec3::ZERO, Vec3::ONE)),
         })
     }
 
