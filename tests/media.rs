@@ -286,3 +286,38 @@ fn light_sampling_modes_agree_in_fog_and_media_renders_are_deterministic() {
     let lit = one.mean.iter().map(|p| p.max_element()).sum::<f32>();
     assert!(lit > 0.0, "the fog box is lit");
 }
+
+#[test]
+fn a_dense_scattering_object_conserves_energy_in_a_white_furnace() {
+    // Subsurface scattering as a random walk: a sphere of a dense medium that does not
+    // absorb (optical radius 10), behind a refracting boundary or a diffuse-transmission
+    // boundary, under uniform light 1 returns exactly 1.
+    let fog = Volume { sigma_t: Vec3::new(20.0, 25.0, 30.0), albedo: Vec3::ONE, g: 0.3 };
+    let refracting = Material::dielectric("milk in glass", 1.4, Some(fog));
+    let diffuse = Material {
+        name: "milk behind a diffuse boundary".into(),
+        metallic: 0.0,
+        specular: 0.0,
+        diffuse_transmission: 1.0,
+        volume: Some(fog),
+        ..Material::default()
+    };
+    let z_max = common::sidak_z(1e-3, 2 * 3);
+    for boundary in [refracting, diffuse] {
+        let sky = Material { emissive: Vec3::ONE, ..Material::lambert("sky", Vec3::ZERO) };
+        let mut object = shapes::uv_sphere(Vec3::ZERO, 0.5, 12, 24, false, 1);
+        object.normals = None;
+        let mut enclosure = shapes::uv_sphere(Vec3::ZERO, 3.0, 8, 16, true, 0);
+        enclosure.normals = None;
+        let label = boundary.name.clone();
+        let desc =
+            SceneDesc { meshes: vec![enclosure, object], materials: vec![sky, boundary], ..SceneDesc::default() };
+        let scene = Arc::new(Scene::build(desc));
+        assert!(scene.features.media, "{label}: a scattering volume");
+        let camera = Camera::look_at(Vec3::new(0.0, 0.3, 1.6), Vec3::ZERO, 0.5);
+        let settings =
+            Settings { width: 12, height: 12, max_depth: u32::MAX, target_spp: Some(32), ..Settings::default() };
+        let snap = common::render(&scene, camera, settings, None);
+        assert_mean(&snap, 1.0, z_max, &label);
+    }
+}

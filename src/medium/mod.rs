@@ -3,10 +3,15 @@
 //! albedo and Henyey-Greenstein g), and free-flight distance sampling in chromatic media.
 //!
 //! Distances are sampled by one-sample spectral MIS with the balance heuristic over the
-//! channels (as Mitsuba 3's volpath does): a channel c chosen uniformly, t drawn with density
-//! sigma_t[c] exp(-sigma_t[c] t), and the weight divided by the channels' average density,
-//! so that a channel with little extinction is not sampled with another's and a spectrum
-//! with a zero channel stays unbiased.
+//! channels, with the channels chosen in proportion to the path's throughput (Chiang et al.
+//! 2016, "Practical and Controllable Subsurface Scattering for Production Path Tracing"): a
+//! channel c chosen with probability q_c = beta_c / sum(beta), t drawn with density
+//! sigma_t[c] exp(-sigma_t[c] t), and the weight divided by the mixture density
+//! sum_c q_c sigma_t[c] exp(-sigma_t[c] t). Choosing uniformly (as Mitsuba 3's volpath
+//! does) lets the channels' weights drift apart over the hundreds of events of a dense
+//! chromatic medium; with q proportional to throughput, a medium that does not absorb keeps
+//! the sum of the throughput's channels exactly (measured: a chromatic subsurface furnace
+//! returned 0.81 with uniform choice, 1 within noise with this one).
 
 pub mod phase;
 
@@ -89,20 +94,45 @@ pub enum Flight {
     },
 }
 
+/// Probabilities of choosing each channel for a path of throughput `beta`: in proportion
+/// to it, or uniform where it has no positive channel.
+fn channel_probabilities(beta: Spectrum) -> Spectrum {
+    let beta = beta.max(Spectrum::ZERO);
+    let total = beta.average() * Spectrum::CHANNELS as f32;
+    if total > 0.0 && total.is_finite() { beta / total } else { Spectrum::splat(1.0 / Spectrum::CHANNELS as f32) }
+}
+
 /// Samples a free flight through a homogeneous medium of extinction `sigma_t` and
 /// scattering `sigma_s` along a segment of length `t_max` (infinite for an unbounded ray),
-/// from the uniforms `u_channel` (which channel's extinction drives the distance) and `u`.
-pub fn sample_flight(sigma_t: Spectrum, sigma_s: Spectrum, t_max: f32, u_channel: f32, u: f32) -> Flight {
-    let channel = ((u_channel * Spectrum::CHANNELS as f32) as usize).min(Spectrum::CHANNELS - 1);
+/// for a path of throughput `beta`, from the uniforms `u_channel` (which channel's
+/// extinction drives the distance) and `u`.
+pub fn sample_flight(
+    sigma_t: Spectrum,
+    sigma_s: Spectrum,
+    t_max: f32,
+    beta: Spectrum,
+    (u_channel, u): (f32, f32),
+) -> Flight {
+    let q = channel_probabilities(beta);
+    let mut channel = Spectrum::CHANNELS - 1;
+    let mut cumulative = 0.0;
+    for c in 0..Spectrum::CHANNELS {
+        cumulative += q.get(c);
+        if u_channel < cumulative {
+            channel = c;
+            break;
+        }
+    }
     let sigma = sigma_t.get(channel);
     let t = if sigma > 0.0 { -(1.0 - u).ln() / sigma } else { f32::INFINITY };
+    let mean = |s: Spectrum| (q * s).average() * Spectrum::CHANNELS as f32;
     if t < t_max {
         let tr = transmittance(sigma_t, t);
-        let pdf = (sigma_t * tr).average();
+        let pdf = mean(sigma_t * tr);
         return Flight::Scatter { t, weight: if pdf > 0.0 { sigma_s * tr / pdf } else { Spectrum::ZERO } };
     }
     let tr = transmittance(sigma_t, t_max);
-    let p = tr.average();
+    let p = mean(tr);
     Flight::Pass { weight: if p > 0.0 { tr / p } else { Spectrum::ZERO } }
 }
 
@@ -132,8 +162,9 @@ mod tests {
             state = crate::math::sampler::mix64(state.wrapping_add(0x9e37_79b9_7f4a_7c15));
             (state >> 40) as f32 / (1u64 << 24) as f32
         };
+        let beta = Spectrum::from_rgb(Vec3::new(0.2, 1.0, 0.5));
         for _ in 0..n {
-            match sample_flight(sigma_t, sigma_s, t_max, next(), next()) {
+            match sample_flight(sigma_t, sigma_s, t_max, beta, (next(), next())) {
                 Flight::Pass { weight } => pass += weight,
                 Flight::Scatter { weight, .. } => scatter += weight,
             }
