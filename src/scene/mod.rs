@@ -185,6 +185,12 @@ impl Scene {
         // Triangles with bad vertices or zero area are dropped: they cannot be hit or sampled.
         for mesh in &meshes {
             let material = mesh.material.min(materials.len() as u32 - 1);
+            if materials[material as usize].is_volume()
+                && let Some(problem) = volume_problem(mesh)
+            {
+                let name = &materials[material as usize].name;
+                warnings.push(format!("material \"{name}\" fills mesh \"{}\" with a volume, but {problem}", mesh.name));
+            }
             for tri in mesh.indices.chunks_exact(3) {
                 let idx = [tri[0] as usize, tri[1] as usize, tri[2] as usize];
                 let p = idx.map(|i| mesh.positions.get(i).copied().unwrap_or(Vec3::NAN));
@@ -464,6 +470,48 @@ fn normal_mapped(n: Vec3, tangent: Vec4, m: Vec3) -> Vec3 {
     if mapped == Vec3::ZERO { n } else { mapped }
 }
 
+/// Why `mesh` cannot bound a volume, if it cannot: the interface stack enters a volume at
+/// front faces and leaves it at back faces, so the surface must be closed (every edge shared
+/// by two triangles of opposite orientation, vertices welded by position) and face outwards
+/// (positive signed volume).
+fn volume_problem(mesh: &MeshDesc) -> Option<String> {
+    use std::collections::HashMap;
+    let (lo, hi) =
+        mesh.positions.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &p| (lo.min(p), hi.max(p)));
+    // Welded within a millionth of the mesh's size: seams rebuilt from angles round differently.
+    let cell = ((hi - lo).max_element() * 1e-6).max(f32::MIN_POSITIVE);
+    let key = |p: Vec3| ((p - lo) / cell).round().as_ivec3().to_array();
+    let mut edges: HashMap<([i32; 3], [i32; 3]), i32> = HashMap::new();
+    let mut volume = 0.0f64;
+    for tri in mesh.indices.chunks_exact(3) {
+        let Some(p) = tri.iter().map(|&i| mesh.positions.get(i as usize).copied()).collect::<Option<Vec<Vec3>>>()
+        else {
+            continue;
+        };
+        if (p[1] - p[0]).cross(p[2] - p[0]) == Vec3::ZERO {
+            continue;
+        }
+        let d = p.iter().map(|v| v.as_dvec3()).collect::<Vec<_>>();
+        volume += d[0].dot(d[1].cross(d[2])) / 6.0;
+        for (a, b) in [(p[0], p[1]), (p[1], p[2]), (p[2], p[0])] {
+            let (ka, kb) = (key(a), key(b));
+            if ka == kb {
+                continue;
+            }
+            let (k, sign) = if ka < kb { ((ka, kb), 1) } else { ((kb, ka), -1) };
+            *edges.entry(k).or_insert(0) += sign;
+        }
+    }
+    let open = edges.values().filter(|&&n| n != 0).count();
+    if open > 0 {
+        Some(format!("it is not closed ({open} edges have no opposite): paths may enter without leaving"))
+    } else if volume < 0.0 {
+        Some("its faces point inwards (negative signed volume): paths would leave where they enter".into())
+    } else {
+        None
+    }
+}
+
 fn build_light_sampler(
     geometry: &Geometry,
     materials: &[Material],
@@ -504,6 +552,24 @@ fn build_light_sampler(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn volume_meshes_must_be_closed_and_face_outwards() {
+        use super::shapes::{cuboid, uv_sphere};
+        assert_eq!(volume_problem(&cuboid(Vec3::ZERO, Vec3::ONE, false, 0)), None);
+        assert_eq!(volume_problem(&uv_sphere(Vec3::ZERO, 1.0, 8, 16, false, 0)), None, "welded seams and poles");
+        assert!(volume_problem(&cuboid(Vec3::ZERO, Vec3::ONE, true, 0)).unwrap().contains("inwards"));
+        let mut open = cuboid(Vec3::ZERO, Vec3::ONE, false, 0);
+        open.indices.truncate(30);
+        assert!(volume_problem(&open).unwrap().contains("not closed (4 edges"));
+        let desc = SceneDesc {
+            meshes: vec![MeshDesc { name: "lid".into(), ..open }],
+            materials: vec![Material::glass("ink", 1.3, Some(Vec3::ONE))],
+            ..SceneDesc::default()
+        };
+        let scene = Scene::build(desc);
+        assert!(scene.warnings.iter().any(|w| w.contains("\"ink\" fills mesh \"lid\"")), "{:?}", scene.warnings);
+    }
 
     #[test]
     fn normal_maps_tilt_towards_the_tangent_and_mirrored_bitangents_flip() {
