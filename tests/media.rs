@@ -321,3 +321,26 @@ fn a_dense_scattering_object_conserves_energy_in_a_white_furnace() {
         assert_mean(&snap, 1.0, z_max, &label);
     }
 }
+
+#[test]
+fn out_of_range_medium_parameters_are_clamped_with_a_warning_naming_the_material() {
+    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/docs/scenes/cornell-fog.gltf")).unwrap();
+    let mut json: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let fog = json["materials"].as_array_mut().unwrap().iter_mut().find(|m| m["name"] == "fog").unwrap();
+    let ext = &mut fog["extensions"];
+    ext["KHR_materials_volume"]["attenuationDistance"] = serde_json::json!(-2.0);
+    ext["KHR_materials_volume"]["attenuationColor"] = serde_json::json!([1.5, 0.5, -0.2]);
+    ext["KHR_materials_volume_scatter"]["scatterAnisotropy"] = serde_json::json!(1.5);
+    ext["KHR_materials_volume_scatter"]["multiscatterColor"] = serde_json::json!([2.0, 0.5, 0.5]);
+    let desc = lucent::loader::gltf::load_slice(json.to_string().as_bytes(), "bad-fog").unwrap();
+    let has = |needle: &str| desc.warnings.iter().any(|w| w.contains("\"fog\"") && w.contains(needle));
+    for needle in ["attenuationDistance -2", "attenuationColor", "scatterAnisotropy 1.5", "multiscatterColor"] {
+        assert!(has(needle), "no warning about {needle}: {:?}", desc.warnings);
+    }
+    let volume = desc.materials.iter().find(|m| m.name == "fog").unwrap().volume.unwrap();
+    assert_eq!(volume.sigma_t, Vec3::ZERO, "a distance that is not positive means no attenuation");
+    assert!(volume.g.abs() < 1.0 && volume.albedo.is_finite() && volume.albedo.max_element() <= 1.0);
+    let scene = Arc::new(Scene::build(desc));
+    let s = Settings { width: 8, height: 8, target_spp: Some(4), ..Settings::default() };
+    assert_eq!(common::render(&scene, scene.default_camera(1.0), s, None).rejected, 0);
+}

@@ -87,6 +87,24 @@ fn every_change_bumps_the_generation_and_edits_keep_the_bvh() {
 }
 
 #[test]
+fn editing_a_medium_switches_the_volumetric_kernel_without_rebuilding_the_bvh() {
+    let desc =
+        lucent::loader::gltf::load(Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/docs/scenes/cornell-fog.gltf")));
+    let scene = Scene::build(desc.unwrap());
+    let fog = scene.materials.iter().position(|m| m.name == "fog").unwrap();
+    assert!(scene.features.media && scene.materials[fog].volume.is_some_and(|v| v.g == 0.5));
+    let settings = Settings { width: 16, height: 16, ..Settings::default() };
+    let mut state = ViewerState::new(scene, None, settings, true, Display::default(), None, Some(1)).unwrap();
+    state.sync();
+    let geometry = Arc::clone(&state.scene.geometry);
+    state.edit(|materials, _| materials[fog].volume.as_mut().unwrap().albedo = glam::Vec3::ZERO);
+    assert!(!state.scene.features.media, "a volume that no longer scatters needs no volumetric kernel");
+    assert!(Arc::ptr_eq(&geometry, &state.scene.geometry) && state.sync(), "restarted, BVH kept");
+    state.edit(|materials, _| materials[fog].volume.as_mut().unwrap().albedo = glam::Vec3::splat(0.9));
+    assert!(state.scene.features.media && state.sync());
+}
+
+#[test]
 fn picking_finds_the_material_under_the_cursor_and_preview_lowers_the_resolution() {
     let mut state = viewer();
     let name = |m: Option<u32>| m.map(|i| state.scene.materials[i as usize].name.clone());

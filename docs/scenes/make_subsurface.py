@@ -20,7 +20,10 @@ indices = []
 for i in range(stacks):
     for j in range(slices):
         a, b, c, e = i * row + j, i * row + j + 1, (i + 1) * row + j + 1, (i + 1) * row + j
-        indices += [a, b, c, a, c, e]
+        if i > 0:  # the first row's (a, b) is the pole: that triangle has no area
+            indices += [a, b, c]
+        if i < stacks - 1:  # the last row's (c, e) is the other pole
+            indices += [a, c, e]
 pos = b"".join(struct.pack("<3f", *p) for p in positions)
 nor = b"".join(struct.pack("<3f", *n) for n in normals)
 idx = struct.pack(f"<{len(indices)}H", *indices)

@@ -46,6 +46,19 @@ impl Volume {
         })
     }
 
+    /// The multiscatter colour whose inversion is `albedo` (the inverse of
+    /// `single_scatter_albedo`, by bisection: the inversion is monotone).
+    pub fn multiscatter_colour(albedo: Vec3) -> Vec3 {
+        albedo.map(|target| {
+            let (mut lo, mut hi) = (0.0f32, 1.0f32);
+            for _ in 0..32 {
+                let mid = 0.5 * (lo + hi);
+                if Self::single_scatter_albedo(Vec3::splat(mid)).x < target { lo = mid } else { hi = mid }
+            }
+            0.5 * (lo + hi)
+        })
+    }
+
     /// Whether light scatters in it (it needs the volumetric path tracer).
     pub fn scatters(&self) -> bool {
         (self.albedo * self.sigma_t).max_element() > 0.0
@@ -145,6 +158,9 @@ mod tests {
         let a = Volume::single_scatter_albedo(Vec3::new(0.0, 0.5, 1.0));
         assert!(a.x.abs() < 1e-3 && a.z > 0.999, "{a}");
         assert!(a.y > 0.5 && a.y < 1.0, "a multiscatter albedo of 0.5 needs a higher single-scatter one: {a}");
+        let colour = Vec3::new(0.2, 0.6, 0.9);
+        let back = Volume::multiscatter_colour(Volume::single_scatter_albedo(colour));
+        assert!((back - colour).abs().max_element() < 1e-4, "round trip {back}");
     }
 
     #[test]

@@ -5,6 +5,7 @@ use super::state::ViewerState;
 use crate::film::tonemap::DISPLAY;
 use crate::integrator::settings::DRT_RAY_BUDGET;
 use crate::integrator::{Integrator, Settings};
+use crate::medium::{Volume, phase::MAX_G};
 use crate::params::{Domain, Group, Param, Value};
 use crate::render::Snapshot;
 use crate::scene::environment::BUILT_IN;
@@ -368,6 +369,37 @@ fn colour_and_amount(ui: &mut Ui, value: Vec3, label: &str, range: std::ops::Ran
     changed.then(|| Vec3::from(colour) * amount)
 }
 
+/// The medium inside a volume, in glTF's terms: attenuation colour at a distance (the
+/// extinction), multiscatter colour (the albedo) and the Henyey-Greenstein g. Values are
+/// written back only when a widget changed, so an unedited volume never restarts the render.
+fn volume_editor(ui: &mut Ui, v: &mut Volume) {
+    ui.label("volume (KHR_materials_volume, _volume_scatter)");
+    let mut distance = 1.0 / v.sigma_t.max_element().max(1e-6);
+    let mut attenuation = (-v.sigma_t * distance).exp().to_array();
+    let mut multiscatter = Volume::multiscatter_colour(v.albedo).to_array();
+    let mut g = v.g;
+    let mut changed = false;
+    ui.horizontal(|ui| {
+        changed |= ui.color_edit_button_rgb(&mut attenuation).changed();
+        ui.label("attenuation colour");
+    });
+    let range = 1e-4..=1e4;
+    changed |= ui.add(egui::Slider::new(&mut distance, range).logarithmic(true).text("attenuation distance")).changed();
+    ui.horizontal(|ui| {
+        changed |= ui.color_edit_button_rgb(&mut multiscatter).changed();
+        ui.label("multiscatter colour");
+    });
+    changed |= ui.add(egui::Slider::new(&mut g, -MAX_G..=MAX_G).text("anisotropy g")).changed();
+    if changed {
+        let attenuation = Vec3::from(attenuation).clamp(Vec3::splat(1e-6), Vec3::ONE);
+        *v = Volume {
+            sigma_t: -attenuation.map(f32::ln) / distance,
+            albedo: Volume::single_scatter_albedo(Vec3::from(multiscatter)),
+            g,
+        };
+    }
+}
+
 fn editors(ui: &mut Ui, state: &mut ViewerState) {
     if let Some(index) = state.selected {
         let mut m = state.scene.materials[index as usize].clone();
@@ -387,6 +419,9 @@ fn editors(ui: &mut Ui, state: &mut ViewerState) {
         ui.add(egui::Slider::new(&mut m.ior, 1.0..=3.0).text("IOR"));
         if let Some(e) = colour_and_amount(ui, m.emissive, "emission", 0.0..=1000.0) {
             m.emissive = e;
+        }
+        if let Some(v) = &mut m.volume {
+            volume_editor(ui, v);
         }
         state.edit(|materials, _| materials[index as usize] = m);
         if ui.button("Deselect").clicked() {
