@@ -52,31 +52,54 @@ fn towards(settings: &Settings, origin: Vec3, wi: Vec3, target: LightTarget) -> 
     }
 }
 
+/// Transmittance of the volume innermost in `media` along the ray from `o` along `d` up to
+/// parameter `t`: Beer-Lambert for a homogeneous medium, ratio tracking through a grid.
+fn segment(scene: &Scene, media: &Media, (o, d, t): (Vec3, Vec3, f32), sampler: &mut Sampler) -> Spectrum {
+    if !scene.features.volumes {
+        return Spectrum::ONE;
+    }
+    let length = d.length();
+    match media.volume(&scene.materials) {
+        Some(v) => match v.grid {
+            Some(g) => {
+                let mut u = || sampler.next_1d();
+                let sigma = v.sigma_t.max_element();
+                Spectrum::splat(scene.grids[g as usize].ratio_track(sigma, o, d / length, t * length, &mut u))
+            }
+            None => transmittance(v.sigma_t(), t * length),
+        },
+        None => Spectrum::ONE,
+    }
+}
+
 /// Transmittance of the shadow ray from `origin` towards `target` along `wi`, starting in
 /// `media`: zero if an opaque or refracting surface blocks it.
-fn shadow(scene: &Scene, settings: &Settings, origin: Vec3, wi: Vec3, target: LightTarget, media: Media) -> Spectrum {
+fn shadow(
+    scene: &Scene,
+    settings: &Settings,
+    (origin, wi, target): (Vec3, Vec3, LightTarget),
+    media: Media,
+    sampler: &mut Sampler,
+) -> Spectrum {
     let (d, tmax) = towards(settings, origin, wi, target);
     let mut ray = Ray { o: origin, d, tmax };
-    let segment = |media: &Media, t: f32, d: Vec3| {
-        if scene.features.volumes {
-            transmittance(media.sigma_t(&scene.materials), t * d.length())
-        } else {
-            Spectrum::ONE
-        }
-    };
     if !scene.features.see_through {
-        return if scene.occluded(&ray, settings.watertight) { Spectrum::ZERO } else { segment(&media, tmax, d) };
+        return if scene.occluded(&ray, settings.watertight) {
+            Spectrum::ZERO
+        } else {
+            segment(scene, &media, (origin, d, tmax), sampler)
+        };
     }
     let (mut tr, mut media) = (Spectrum::ONE, media);
     for _ in 0..MAX_CROSSINGS {
         let Some(hit) = scene.intersect(&ray, settings.watertight, false) else {
-            return tr * segment(&media, ray.tmax, ray.d);
+            return tr * segment(scene, &media, (ray.o, ray.d, ray.tmax), sampler);
         };
         let surface = scene.surface(&hit);
         if !scene.materials[surface.material as usize].is_transmissive() {
             return Spectrum::ZERO;
         }
-        tr *= segment(&media, hit.t, ray.d);
+        tr *= segment(scene, &media, (ray.o, ray.d, hit.t), sampler);
         let vertex = Vertex::new(scene, settings, surface, ray.d, media);
         let Some(passed) = vertex.bsdf.null_transmission(vertex.wo) else { return Spectrum::ZERO };
         tr *= passed;
@@ -122,7 +145,7 @@ pub fn sample_direct(scene: &Scene, settings: &Settings, vertex: &Vertex, sample
     let Some((_, origin, crosses)) = vertex.leave(vertex.frame.to_local(light.wi)) else {
         return DirectLight::NONE;
     };
-    let tr = shadow(scene, settings, origin, light.wi, light.target, vertex.media_after(scene, crosses));
+    let tr = shadow(scene, settings, (origin, light.wi, light.target), vertex.media_after(scene, crosses), sampler);
     if tr.is_black() {
         return DirectLight { radiance: Spectrum::ZERO, shadow_ray: true };
     }
@@ -143,7 +166,7 @@ pub fn sample_medium(
     let u = sampler.next_2d();
     let Some(light) = scene.sample_li(p, u_select, u) else { return DirectLight::NONE };
     let f = phase.eval(wo, light.wi);
-    let tr = shadow(scene, settings, p, light.wi, light.target, media);
+    let tr = shadow(scene, settings, (p, light.wi, light.target), media, sampler);
     if tr.is_black() {
         return DirectLight { radiance: Spectrum::ZERO, shadow_ray: true };
     }

@@ -56,34 +56,50 @@ pub fn radiance<const MEDIA: bool>(
         if MEDIA && let Some(volume) = media.volume(&scene.materials).filter(|v| v.scatters()) {
             let length = ray.d.length();
             let t_max = hit.map_or(f32::INFINITY, |h| h.t * length);
-            let u = (sampler.next_1d(), sampler.next_1d());
-            match sample_flight(volume.sigma_t(), volume.sigma_s(), t_max, throughput, u) {
-                Flight::Scatter { t, weight } => {
-                    throughput *= weight;
-                    if depth == settings.max_depth {
-                        break;
-                    }
-                    let wo = -ray.d / length;
-                    let p = ray.o + ray.d * (t / length);
-                    let phase = volume.phase();
-                    if sample_lights {
-                        let direct = sample_medium(scene, settings, (p, wo), phase, media, sampler);
-                        check(NanCause::LightSample, direct.radiance);
-                        out.radiance += throughput * direct.radiance;
-                        out.rays += direct.shadow_ray as u32;
-                        out.shadow_rays += direct.shadow_ray as u32;
-                    }
-                    let next = phase.sample(wo, sampler.next_2d());
-                    last = Some(Scattered { pdf: next.pdf, specular: false });
-                    travelled = 0.0;
-                    ray = Ray { o: p, d: next.wi, tmax: f32::INFINITY };
-                    depth += 1;
-                    if !roulette(settings, depth, &mut throughput, eta_scale, sampler) {
-                        break;
-                    }
-                    continue;
+            let scattered = match volume.grid {
+                Some(g) => {
+                    // Delta tracking: a real collision scatters with the albedo as weight.
+                    let mut u = || sampler.next_1d();
+                    let sigma = volume.sigma_t.max_element();
+                    scene.grids[g as usize]
+                        .delta_track(sigma, ray.o, ray.d / length, t_max, &mut u)
+                        .map(|t| (t, Spectrum::from_rgb(volume.albedo)))
                 }
-                Flight::Pass { weight } => throughput *= weight,
+                None => {
+                    let u = (sampler.next_1d(), sampler.next_1d());
+                    match sample_flight(volume.sigma_t(), volume.sigma_s(), t_max, throughput, u) {
+                        Flight::Scatter { t, weight } => Some((t, weight)),
+                        Flight::Pass { weight } => {
+                            throughput *= weight;
+                            None
+                        }
+                    }
+                }
+            };
+            if let Some((t, weight)) = scattered {
+                throughput *= weight;
+                if depth == settings.max_depth {
+                    break;
+                }
+                let wo = -ray.d / length;
+                let p = ray.o + ray.d * (t / length);
+                let phase = volume.phase();
+                if sample_lights {
+                    let direct = sample_medium(scene, settings, (p, wo), phase, media, sampler);
+                    check(NanCause::LightSample, direct.radiance);
+                    out.radiance += throughput * direct.radiance;
+                    out.rays += direct.shadow_ray as u32;
+                    out.shadow_rays += direct.shadow_ray as u32;
+                }
+                let next = phase.sample(wo, sampler.next_2d());
+                last = Some(Scattered { pdf: next.pdf, specular: false });
+                travelled = 0.0;
+                ray = Ray { o: p, d: next.wi, tmax: f32::INFINITY };
+                depth += 1;
+                if !roulette(settings, depth, &mut throughput, eta_scale, sampler) {
+                    break;
+                }
+                continue;
             }
         } else if let Some(hit) = hit
             && scene.features.volumes

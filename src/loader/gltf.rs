@@ -65,6 +65,7 @@ pub fn load_with_limits(path: &Path, limits: &Limits) -> Result<SceneDesc, LoadE
     let name = path.file_stem().map_or("scene".into(), |s| s.to_string_lossy().into_owned());
     let mut desc = convert(&doc, &buffers, images, name).map_err(&fail)?;
     super::sidecar::apply(&mut desc, path).map_err(fail)?;
+    super::media::apply(&mut desc, path).map_err(fail)?;
     Ok(desc)
 }
 
@@ -709,7 +710,7 @@ fn convert_volume(
             g.clamp(-MAX_G, MAX_G)
         ));
     }
-    Volume { sigma_t, albedo: Volume::single_scatter_albedo(multiscatter), g: g.clamp(-MAX_G, MAX_G) }
+    Volume { sigma_t, albedo: Volume::single_scatter_albedo(multiscatter), g: g.clamp(-MAX_G, MAX_G), grid: None }
 }
 
 fn convert_material(m: &gltf::Material, texture_count: usize, warnings: &mut Warnings) -> Material {

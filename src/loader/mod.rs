@@ -4,6 +4,7 @@ pub mod builtin;
 pub mod gltf;
 mod graph;
 pub mod limits;
+pub mod media;
 mod resources;
 pub mod sidecar;
 mod tangents;

@@ -14,6 +14,7 @@ use crate::math::{
     float::{gamma, interpolation_error, offset_ray_origin},
     luminance,
 };
+use crate::medium::grid::DensityGrid;
 use camera::Camera;
 use environment::Environment;
 use geometry::{Geometry, Hit, Ray, TriAttrs, TriExtra};
@@ -114,6 +115,9 @@ pub struct SceneDesc {
     pub lights: Vec<PunctualLight>,
     /// Cameras from the file, with their names; the first is the default view.
     pub cameras: Vec<(String, Camera)>,
+    /// Density grids that volumes refer to (`Volume::grid`), fitted by `Scene::build` to
+    /// the bounds of the meshes whose materials hold them.
+    pub grids: Vec<DensityGrid>,
     /// Things the loader could not honour, one line each.
     pub warnings: Vec<String>,
 }
@@ -153,6 +157,8 @@ pub struct Scene {
     pub textures: Vec<Texture>,
     /// Images behind the textures (shared by edited copies of the scene).
     pub images: Arc<Vec<Image>>,
+    /// Density grids of heterogeneous volumes (shared by edited copies of the scene).
+    pub grids: Arc<Vec<DensityGrid>>,
     /// Punctual lights.
     pub lights: Vec<PunctualLight>,
     /// Light from outside the scene, if any.
@@ -173,7 +179,9 @@ impl Scene {
     /// Flattens meshes to triangles (dropping degenerate or non-finite ones with a warning),
     /// builds the BVH, the light sampler and the feature set.
     pub fn build(desc: SceneDesc) -> Self {
-        let SceneDesc { name, meshes, mut materials, textures, images, lights, cameras, mut warnings } = desc;
+        let SceneDesc { name, meshes, mut materials, textures, images, lights, cameras, mut grids, mut warnings } =
+            desc;
+        let mut material_bounds = vec![(Vec3::INFINITY, Vec3::NEG_INFINITY); materials.len().max(1)];
         if materials.is_empty() {
             materials.push(Material::default());
         }
@@ -217,6 +225,8 @@ impl Scene {
                     Some(uv) => idx.map(|i| uv.get(i).copied().filter(|v| v.is_finite()).unwrap_or(Vec2::ZERO)),
                     None => [Vec2::ZERO; 3],
                 };
+                let b = &mut material_bounds[material as usize];
+                *b = p.iter().fold(*b, |(lo, hi), &v| (lo.min(v), hi.max(v)));
                 positions.push(p);
                 attrs.push(TriAttrs { normals, uvs, ng, material });
                 if has_extra {
@@ -248,6 +258,14 @@ impl Scene {
             .flatten()
             .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &v| (lo.min(v), hi.max(v)));
         let bounds = if positions.is_empty() { (Vec3::ZERO, Vec3::ZERO) } else { bounds };
+        // Each grid spans the bounds of the meshes whose material holds it.
+        for (m, &(lo, hi)) in materials.iter().zip(&material_bounds) {
+            if let Some(grid) = m.volume.and_then(|v| v.grid).and_then(|g| grids.get_mut(g as usize))
+                && lo.cmple(hi).all()
+            {
+                grid.fit(lo, hi);
+            }
+        }
         let geometry = Arc::new(Geometry::build(positions, attrs, extra));
         let mut scene = Self {
             name,
@@ -255,6 +273,7 @@ impl Scene {
             materials,
             textures,
             images: Arc::new(images),
+            grids: Arc::new(grids),
             lights,
             environment: None,
             light_sampler: LightSampler::default(),
@@ -282,6 +301,7 @@ impl Scene {
         let mut scene = Self {
             name: self.name.clone(),
             geometry: Arc::clone(&self.geometry),
+            grids: Arc::clone(&self.grids),
             materials,
             textures: self.textures.clone(),
             images: Arc::clone(&self.images),

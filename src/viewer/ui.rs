@@ -374,6 +374,10 @@ fn colour_and_amount(ui: &mut Ui, value: Vec3, label: &str, range: std::ops::Ran
 /// written back only when a widget changed, so an unedited volume never restarts the render.
 fn volume_editor(ui: &mut Ui, v: &mut Volume) {
     ui.label("volume (KHR_materials_volume, _volume_scatter)");
+    if v.grid.is_some() {
+        grid_editor(ui, v);
+        return;
+    }
     let mut distance = 1.0 / v.sigma_t.max_element().max(1e-6);
     let mut attenuation = (-v.sigma_t * distance).exp().to_array();
     let mut multiscatter = Volume::multiscatter_colour(v.albedo).to_array();
@@ -396,6 +400,30 @@ fn volume_editor(ui: &mut Ui, v: &mut Volume) {
             sigma_t: -attenuation.map(f32::ln) / distance,
             albedo: Volume::single_scatter_albedo(Vec3::from(multiscatter)),
             g,
+            ..*v
+        };
+    }
+}
+
+/// A density grid's medium (from `SCENE.media.toml`): its density scale (the grey
+/// extinction where the grid's value is 1), albedo and g.
+fn grid_editor(ui: &mut Ui, v: &mut Volume) {
+    let mut density = v.sigma_t.x;
+    let mut albedo = v.albedo.to_array();
+    let mut g = v.g;
+    let mut changed = false;
+    changed |= ui.add(egui::Slider::new(&mut density, 0.0..=1e4).logarithmic(true).text("density scale")).changed();
+    ui.horizontal(|ui| {
+        changed |= ui.color_edit_button_rgb(&mut albedo).changed();
+        ui.label("albedo");
+    });
+    changed |= ui.add(egui::Slider::new(&mut g, -MAX_G..=MAX_G).text("anisotropy g")).changed();
+    if changed {
+        *v = Volume {
+            sigma_t: Vec3::splat(density.max(0.0)),
+            albedo: Vec3::from(albedo).clamp(Vec3::ZERO, Vec3::ONE),
+            g,
+            ..*v
         };
     }
 }
