@@ -148,3 +148,29 @@ fn no_shadow_ray_leaves_a_delta_vertex() {
     let (shadow, _, _) = count(&all_delta_scene(0.5), LightSampling::Mis);
     assert!(shadow > 1024, "rough walls sample lights ({shadow} shadow rays)");
 }
+
+#[test]
+fn transmits_agrees_with_the_transmission_flag() {
+    for metallic in [0.0, 0.5, 1.0] {
+        for transmission in [0.0, 0.5, 1.0] {
+            for diffuse_transmission in [0.0, 0.5, 1.0] {
+                for (alpha, thin) in [(0.0, false), (0.0, true), (0.3, false), (0.3, true)] {
+                    let bsdf = Bsdf::MetalRough(MetalRough {
+                        metallic,
+                        transmission,
+                        diffuse_transmission,
+                        alpha,
+                        thin,
+                        ..MetalRough::default()
+                    });
+                    assert_eq!(
+                        bsdf.transmits(),
+                        bsdf.flags().contains(LobeFlags::TRANSMISSION),
+                        "metallic {metallic}, transmission {transmission}, diffuse transmission \
+                         {diffuse_transmission}, alpha {alpha}, thin {thin}"
+                    );
+                }
+            }
+        }
+    }
+}

@@ -135,7 +135,10 @@ impl Bsdf<'_> {
 
     /// Whether light can pass through to the other side (wi below the surface).
     pub fn transmits(&self) -> bool {
-        self.flags().contains(LobeFlags::TRANSMISSION)
+        match self {
+            Bsdf::MetalRough(b) => b.transmits(),
+            Bsdf::Lambert(_) | Bsdf::Measured(_) => false,
+        }
     }
 
     /// Relative index of refraction crossed by transmitted light (1 for thin walls and
