@@ -193,37 +193,6 @@ fn a_scattering_medium_in_an_emitting_enclosure_returns_the_emitted_radiance() {
     }
 }
 
-/// Per-block means and variances of the mean of 8x8-pixel blocks.
-fn blocks(s: &Snapshot) -> Vec<(DVec3, DVec3)> {
-    let per_side = s.width / 8;
-    let mut out = vec![(DVec3::ZERO, DVec3::ZERO); (per_side * per_side) as usize];
-    for y in 0..s.height {
-        for x in 0..s.width {
-            let i = (y * s.width + x) as usize;
-            let b = &mut out[((y / 8) * per_side + x / 8) as usize];
-            b.0 += s.mean[i].as_dvec3() / 64.0;
-            b.1 += s.variance[i].as_dvec3() / (64.0 * 64.0);
-        }
-    }
-    out
-}
-
-/// Asserts the block means of `test` agree with `reference` (z-tests at `z_max`).
-fn assert_blocks_agree(test: &Snapshot, reference: &Snapshot, z_max: f64, label: &str) {
-    assert_eq!(test.rejected, 0, "{label}: NaN/Inf samples");
-    for (b, (t, r)) in blocks(test).iter().zip(blocks(reference)).enumerate() {
-        for c in 0..3 {
-            let se = (t.1[c] + r.1[c]).sqrt();
-            if se == 0.0 {
-                assert_eq!(t.0[c], r.0[c], "{label}: block {b} channel {c}: noiseless blocks differ");
-                continue;
-            }
-            let z = (t.0[c] - r.0[c]) / se;
-            assert!(z.abs() < z_max, "{label}: block {b} channel {c}: {:.4} vs {:.4} (z = {z:.2})", t.0[c], r.0[c]);
-        }
-    }
-}
-
 /// The Cornell box with an index-matched box of `volume` (None: empty, a thin wall of ior 1)
 /// filling its lower part.
 fn cornell_with_box(volume: Option<Volume>) -> Arc<Scene> {
@@ -263,7 +232,7 @@ fn an_index_matched_empty_box_changes_nothing_and_adds_no_bounce() {
     for max_depth in [1, 7] {
         let a = common::render(&plain, camera, cornell_settings(LightSampling::Mis, 1, 64, max_depth), None);
         let b = common::render(&boxed, camera, cornell_settings(LightSampling::Mis, 2, 64, max_depth), None);
-        assert_blocks_agree(&b, &a, z_max, &format!("index-matched empty box, max depth {max_depth}"));
+        common::assert_blocks_agree(&b, &a, z_max, &format!("index-matched empty box, max depth {max_depth}"));
     }
 }
 
@@ -277,7 +246,7 @@ fn light_sampling_modes_agree_in_fog_and_media_renders_are_deterministic() {
     let z_max = common::sidak_z(1e-3, 2 * 36 * 3);
     for (lights, spp) in [(LightSampling::Explicit, 256), (LightSampling::Off, 1024)] {
         let snap = common::render(&scene, camera, cornell_settings(lights, 2, spp, 7), None);
-        assert_blocks_agree(&snap, &reference, z_max, &format!("fog, lights {lights:?}"));
+        common::assert_blocks_agree(&snap, &reference, z_max, &format!("fog, lights {lights:?}"));
     }
     let s = cornell_settings(LightSampling::Mis, 3, 4, 7);
     let one = common::render(&scene, camera, s, Some(1));
@@ -413,5 +382,5 @@ fn a_constant_density_grid_renders_like_the_homogeneous_medium() {
     let z_max = common::sidak_z(1e-3, 36 * 3);
     let a = common::render(&plain, camera, cornell_settings(LightSampling::Mis, 1, 256, 7), None);
     let b = common::render(&gridded, camera, cornell_settings(LightSampling::Mis, 2, 256, 7), None);
-    assert_blocks_agree(&b, &a, z_max, "constant grid against the homogeneous medium");
+    common::assert_blocks_agree(&b, &a, z_max, "constant grid against the homogeneous medium");
 }

@@ -45,7 +45,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     };
     let session = RenderSession::new(Job { scene: Arc::clone(&scene), camera, settings }, args.options.threads)
         .map_err(|e| e.to_string())?;
-    eprintln!("{}: simulating {}", scene.name, crate::integrator::simulated_effects(&scene));
+    eprintln!("{}: simulating {}", scene.name, crate::integrator::simulated_effects(&scene, &settings));
 
     let bar = match (args.time, target) {
         (Some(t), _) => ProgressBar::new((t * 1000.0) as u64).with_style(style("{elapsed_precise} [{bar:40}] {msg}")),

@@ -20,7 +20,7 @@ use crate::scene::{
     geometry::Ray,
     light::{LightSample, LightTarget},
 };
-use crate::spectrum::Spectrum;
+use crate::spectrum::{Spectrum, Wavelengths};
 use glam::Vec3;
 
 /// Most see-through surfaces one shadow ray crosses before it counts as blocked.
@@ -57,7 +57,13 @@ fn towards(settings: &Settings, origin: Vec3, wi: Vec3, target: LightTarget) -> 
 /// Forced inline, with `shadow`: left to itself the compiler called both out of line, which
 /// cost the Cornell box 0.7% more instructions per sample (callgrind).
 #[inline(always)]
-fn segment(scene: &Scene, media: &Media, (o, d, t): (Vec3, Vec3, f32), sampler: &mut Sampler) -> Spectrum {
+fn segment(
+    scene: &Scene,
+    media: &Media,
+    (o, d, t): (Vec3, Vec3, f32),
+    sampler: &mut Sampler,
+    wl: &Wavelengths,
+) -> Spectrum {
     if !scene.features.volumes {
         return Spectrum::ONE;
     }
@@ -69,7 +75,7 @@ fn segment(scene: &Scene, media: &Media, (o, d, t): (Vec3, Vec3, f32), sampler: 
                 let sigma = v.sigma_t.max_element();
                 Spectrum::splat(scene.grids[g as usize].ratio_track(sigma, o, d / length, t * length, &mut u))
             }
-            None => transmittance(v.sigma_t(), t * length),
+            None => transmittance(wl.reflectance(v.sigma_t()), t * length),
         },
         None => Spectrum::ONE,
     }
@@ -84,16 +90,17 @@ fn shadow(
     (origin, wi, target): (Vec3, Vec3, LightTarget),
     media: Media,
     sampler: &mut Sampler,
+    wl: &Wavelengths,
 ) -> Spectrum {
     let (d, tmax) = towards(settings, origin, wi, target);
     let ray = Ray { o: origin, d, tmax };
     if scene.features.see_through {
-        return shadow_through(scene, settings, (ray, wi, target), media, sampler);
+        return shadow_through(scene, settings, (ray, wi, target), media, sampler, wl);
     }
     if scene.occluded(&ray, settings.watertight) {
         Spectrum::ZERO
     } else {
-        segment(scene, &media, (origin, d, tmax), sampler)
+        segment(scene, &media, (origin, d, tmax), sampler, wl)
     }
 }
 
@@ -106,20 +113,21 @@ fn shadow_through(
     (mut ray, wi, target): (Ray, Vec3, LightTarget),
     mut media: Media,
     sampler: &mut Sampler,
+    wl: &Wavelengths,
 ) -> Spectrum {
     let mut tr = Spectrum::ONE;
     for _ in 0..MAX_CROSSINGS {
         let Some(hit) = scene.intersect(&ray, settings.watertight, false) else {
-            return tr * segment(scene, &media, (ray.o, ray.d, ray.tmax), sampler);
+            return tr * segment(scene, &media, (ray.o, ray.d, ray.tmax), sampler, wl);
         };
         let surface = scene.surface(&hit);
         if !scene.materials[surface.material as usize].is_transmissive() {
             return Spectrum::ZERO;
         }
-        tr *= segment(scene, &media, (ray.o, ray.d, hit.t), sampler);
-        let vertex = Vertex::new(scene, settings, surface, ray.d, media);
+        tr *= segment(scene, &media, (ray.o, ray.d, hit.t), sampler, wl);
+        let vertex = Vertex::new(scene, settings, surface, ray.d, media, &mut wl.clone());
         let Some(passed) = vertex.bsdf.null_transmission(vertex.wo) else { return Spectrum::ZERO };
-        tr *= passed;
+        tr *= wl.reflectance(passed);
         if tr.is_black() {
             return tr;
         }
@@ -133,21 +141,34 @@ fn shadow_through(
 /// The light sample's contribution for a scattering function value `f` (f |cos| at a
 /// surface, the phase function in a medium) of density `pdf` for the direction, and the
 /// shadow ray's transmittance `tr`.
-fn weighted(settings: &Settings, light: &LightSample, f: Spectrum, pdf: f32, tr: Spectrum) -> Spectrum {
+fn weighted(
+    settings: &Settings,
+    light: &LightSample,
+    (f, pdf): (Spectrum, f32),
+    tr: Spectrum,
+    wl: &Wavelengths,
+) -> Spectrum {
+    let (radiance, f) = (wl.illuminant(light.radiance), wl.reflectance(f));
     if light.is_delta {
-        return light.radiance * f * tr / light.pdf;
+        return radiance * f * tr / light.pdf;
     }
     let weight = match settings.light_sampling {
         LightSampling::Mis => power_heuristic(light.pdf, pdf),
         _ => 1.0,
     };
-    light.radiance * f * tr * (weight / light.pdf)
+    radiance * f * tr * (weight / light.pdf)
 }
 
 /// Direct light at the surface `vertex` from one light chosen in proportion to power. Area
 /// lights are sampled by area and converted to solid angle, `Le f cos_s cos_l / (d^2 p_area
 /// p_select)`, with no clamp.
-pub fn sample_direct(scene: &Scene, settings: &Settings, vertex: &Vertex, sampler: &mut Sampler) -> DirectLight {
+pub fn sample_direct(
+    scene: &Scene,
+    settings: &Settings,
+    vertex: &Vertex,
+    sampler: &mut Sampler,
+    wl: &Wavelengths,
+) -> DirectLight {
     let u_select = sampler.next_2d();
     let u = sampler.next_2d();
     if !vertex.bsdf.flags().has_non_specular() {
@@ -162,11 +183,12 @@ pub fn sample_direct(scene: &Scene, settings: &Settings, vertex: &Vertex, sample
     let Some((_, origin, crosses)) = vertex.leave(vertex.frame.to_local(light.wi)) else {
         return DirectLight::NONE;
     };
-    let tr = shadow(scene, settings, (origin, light.wi, light.target), vertex.media_after(scene, crosses), sampler);
+    let media = vertex.media_after(scene, crosses);
+    let tr = shadow(scene, settings, (origin, light.wi, light.target), media, sampler, wl);
     if tr.is_black() {
         return DirectLight { radiance: Spectrum::ZERO, shadow_ray: true };
     }
-    DirectLight { radiance: weighted(settings, &light, f, bsdf_pdf, tr), shadow_ray: true }
+    DirectLight { radiance: weighted(settings, &light, (f, bsdf_pdf), tr, wl), shadow_ray: true }
 }
 
 /// Direct light at a point `p` where a medium of phase function `phase` scatters light
@@ -178,14 +200,15 @@ pub fn sample_medium(
     phase: HenyeyGreenstein,
     media: Media,
     sampler: &mut Sampler,
+    wl: &Wavelengths,
 ) -> DirectLight {
     let u_select = sampler.next_2d();
     let u = sampler.next_2d();
     let Some(light) = scene.sample_li(p, u_select, u) else { return DirectLight::NONE };
     let f = phase.eval(wo, light.wi);
-    let tr = shadow(scene, settings, (p, light.wi, light.target), media, sampler);
+    let tr = shadow(scene, settings, (p, light.wi, light.target), media, sampler, wl);
     if tr.is_black() {
         return DirectLight { radiance: Spectrum::ZERO, shadow_ray: true };
     }
-    DirectLight { radiance: weighted(settings, &light, Spectrum::splat(f), f, tr), shadow_ray: true }
+    DirectLight { radiance: weighted(settings, &light, (Spectrum::splat(f), f), tr, wl), shadow_ray: true }
 }

@@ -18,7 +18,7 @@ use super::vertex::Vertex;
 use crate::bsdf::{Bsdf, LobeFlags, TransportMode};
 use crate::math::sampler::Sampler;
 use crate::scene::{Scene, geometry::Ray};
-use crate::spectrum::Spectrum;
+use crate::spectrum::{Spectrum, Wavelengths};
 use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_PI_2, TAU};
 
@@ -60,7 +60,7 @@ fn trace(
 ) -> Spectrum {
     out.rays += 1;
     let Some(hit) = scene.intersect(&ray, settings.watertight, depth == 0) else {
-        return escaped(scene, settings, ray.d, last, &media);
+        return escaped(scene, settings, ray.d, last, &media, &Wavelengths::Rgb);
     };
     let absorbed = if scene.features.volumes {
         transmittance(media.sigma_t(&scene.materials), hit.t * ray.d.length())
@@ -70,12 +70,12 @@ fn trace(
     let surface = scene.surface(&hit);
     let mut radiance = Spectrum::ZERO;
     if surface.ng.dot(ray.d) < 0.0 {
-        radiance += emitted(scene, settings, &surface, -ray.d, travelled + hit.t, last);
+        radiance += emitted(scene, settings, &surface, -ray.d, travelled + hit.t, last, &Wavelengths::Rgb);
     }
     if depth == settings.max_depth && !scene.features.see_through {
         return radiance * absorbed;
     }
-    let vertex = Vertex::new(scene, settings, surface, ray.d, media);
+    let vertex = Vertex::new(scene, settings, surface, ray.d, media, &mut Wavelengths::Rgb);
     if depth == settings.max_depth {
         // No bounce is left, but light passing straight through still goes on.
         if let Some(passed) = vertex.bsdf.null_transmission(vertex.wo).filter(|p| !p.is_black()) {
@@ -86,7 +86,7 @@ fn trace(
         return radiance * absorbed;
     }
     if settings.light_sampling != LightSampling::Off && !scene.light_sampler.is_empty() {
-        let direct = sample_direct(scene, settings, &vertex, sampler);
+        let direct = sample_direct(scene, settings, &vertex, sampler, &Wavelengths::Rgb);
         radiance += direct.radiance;
         out.rays += direct.shadow_ray as u32;
         out.shadow_rays += direct.shadow_ray as u32;

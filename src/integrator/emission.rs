@@ -6,7 +6,7 @@ use super::mis::{Scattered, emission_weight};
 use super::nan::{NanCause, check};
 use super::settings::Settings;
 use crate::scene::{Scene, Surface, light::LightHit};
-use crate::spectrum::Spectrum;
+use crate::spectrum::{Spectrum, Wavelengths};
 use glam::Vec3;
 
 /// Radiance emitted towards `wo` by the front of `surface`, reached at distance `t` (in
@@ -19,11 +19,12 @@ pub fn emitted(
     wo: Vec3,
     t: f32,
     last: Option<Scattered>,
+    wl: &Wavelengths,
 ) -> Spectrum {
     if !scene.materials[surface.material as usize].is_emissive() {
         return Spectrum::ZERO;
     }
-    let le = scene.emission(surface);
+    let le = wl.illuminant(scene.emission(surface));
     let weight = emission_weight(settings, last, || scene.pdf_li(LightHit::Emitter { surface, wo, distance: t }));
     check(NanCause::Emission, le);
     le * weight
@@ -32,14 +33,25 @@ pub fn emitted(
 /// Radiance from the environment along `d`, the direction of a ray sampled as `last` that
 /// left the scene, attenuated by the volume the ray was in.
 #[inline]
-pub fn escaped(scene: &Scene, settings: &Settings, d: Vec3, last: Option<Scattered>, media: &Media) -> Spectrum {
+pub fn escaped(
+    scene: &Scene,
+    settings: &Settings,
+    d: Vec3,
+    last: Option<Scattered>,
+    media: &Media,
+    wl: &Wavelengths,
+) -> Spectrum {
     let Some(env) = &scene.environment else { return Spectrum::ZERO };
     let d = d.normalize();
     let weight = emission_weight(settings, last, || scene.pdf_li(LightHit::Escaped(d)));
     if weight == 0.0 {
         return Spectrum::ZERO;
     }
-    let le = env.radiance(d) * weight;
+    let le = wl.illuminant(env.radiance(d)) * weight;
     check(NanCause::Emission, le);
-    if scene.features.volumes { le * transmittance(media.sigma_t(&scene.materials), f32::INFINITY) } else { le }
+    if scene.features.volumes {
+        le * transmittance(wl.reflectance(media.sigma_t(&scene.materials)), f32::INFINITY)
+    } else {
+        le
+    }
 }

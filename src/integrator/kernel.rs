@@ -20,7 +20,7 @@ use crate::scene::{
     Scene,
     camera::{Camera, RayGenerator},
 };
-use crate::spectrum::Spectrum;
+use crate::spectrum::{Spectrum, Wavelengths, sampled::Sampled};
 use glam::{UVec2, Vec2};
 
 /// The radiance one pixel sample carries, and how many rays it traced.
@@ -49,10 +49,17 @@ impl View {
     }
 }
 
-/// The effects the kernel simulates for `scene`, one line for users ("participating
-/// media, see-through shadows").
-pub fn simulated_effects(scene: &Scene) -> String {
+/// The effects the kernel simulates for `scene` with `settings`, one line for users
+/// ("participating media, see-through shadows, spectral: 2 dispersive materials").
+pub fn simulated_effects(scene: &Scene, settings: &Settings) -> String {
     let f = scene.features;
+    let dispersive = scene.materials.iter().filter(|m| m.is_dispersive()).count();
+    let spectral = match (is_spectral(scene, settings), dispersive) {
+        (false, _) => None,
+        (true, 0) => Some("spectral (asked for)".to_string()),
+        (true, 1) => Some("spectral: 1 dispersive material".to_string()),
+        (true, n) => Some(format!("spectral: {n} dispersive materials")),
+    };
     let effects: Vec<&str> = [
         (f.media, "participating media"),
         (f.volumes && !f.media, "absorbing volumes"),
@@ -62,8 +69,15 @@ pub fn simulated_effects(scene: &Scene) -> String {
     ]
     .into_iter()
     .filter_map(|(on, name)| on.then_some(name))
+    .chain(spectral.as_deref())
     .collect();
     if effects.is_empty() { "surfaces only".into() } else { effects.join(", ") }
+}
+
+/// Whether paths carry sampled wavelengths: asked for, or needed by a dispersive material.
+/// Distribution ray tracing stays RGB (the session refuses it for spectral scenes).
+pub fn is_spectral(scene: &Scene, settings: &Settings) -> bool {
+    settings.integrator == Integrator::Path && settings.wants_spectral(scene.features.dispersion)
 }
 
 /// Offset of a sample inside its pixel, in [0, 1)^2, per the pixel-sampling mode.
@@ -90,11 +104,17 @@ pub fn sample_pixel(scene: &Scene, settings: &Settings, view: &View, pixel: UVec
     let ray = view.rays.ray(film);
     check(NanCause::CameraRay, Spectrum::from_rgb(ray.o + ray.d));
     let media = view.media;
+    let mut wl = if is_spectral(scene, settings) {
+        Wavelengths::Sampled(Sampled::new(sampler.next_1d()))
+    } else {
+        Wavelengths::Rgb
+    };
     let mut out = match (settings.integrator, scene.features.media) {
-        (Integrator::Path, false) => super::path::radiance::<false>(scene, settings, ray, media, &mut sampler),
-        (Integrator::Path, true) => super::path::radiance::<true>(scene, settings, ray, media, &mut sampler),
+        (Integrator::Path, false) => super::path::radiance::<false>(scene, settings, ray, media, &mut sampler, &mut wl),
+        (Integrator::Path, true) => super::path::radiance::<true>(scene, settings, ray, media, &mut sampler, &mut wl),
         (Integrator::Distribution, _) => super::drt::radiance(scene, settings, ray, media, &mut sampler),
     };
+    out.radiance = wl.to_rgb(out.radiance);
     if let Some(c) = settings.firefly_clamp {
         let m = out.radiance.max_element();
         if m > c {

@@ -17,6 +17,6 @@ pub mod settings;
 mod vertex;
 
 pub use drt::grid_shape;
-pub use kernel::{PathOutput, View, sample_pixel, simulated_effects};
+pub use kernel::{PathOutput, View, is_spectral, sample_pixel, simulated_effects};
 pub use scatter::Sampling;
-pub use settings::{Directions, Integrator, LightSampling, PixelSampling, SamplerKind, Settings};
+pub use settings::{Directions, Integrator, LightSampling, PixelSampling, SamplerKind, Settings, Spectral};

@@ -26,7 +26,7 @@ use crate::bsdf::LobeFlags;
 use crate::math::sampler::Sampler;
 use crate::medium::{Flight, sample_flight};
 use crate::scene::{Scene, geometry::Ray};
-use crate::spectrum::Spectrum;
+use crate::spectrum::{Spectrum, Wavelengths};
 
 /// Most surfaces a path crosses without a bounce (guards against coincident null surfaces).
 const MAX_CROSSINGS: u32 = 256;
@@ -38,6 +38,7 @@ pub fn radiance<const MEDIA: bool>(
     mut ray: Ray,
     mut media: Media,
     sampler: &mut Sampler,
+    wl: &mut Wavelengths,
 ) -> PathOutput {
     let mut out = PathOutput::default();
     let mut throughput = Spectrum::ONE;
@@ -63,11 +64,17 @@ pub fn radiance<const MEDIA: bool>(
                     let sigma = volume.sigma_t.max_element();
                     scene.grids[g as usize]
                         .delta_track(sigma, ray.o, ray.d / length, t_max, &mut u)
-                        .map(|t| (t, Spectrum::from_rgb(volume.albedo)))
+                        .map(|t| (t, wl.reflectance(Spectrum::from_rgb(volume.albedo))))
                 }
                 None => {
                     let u = (sampler.next_1d(), sampler.next_1d());
-                    match sample_flight(volume.sigma_t(), volume.sigma_s(), t_max, throughput, u) {
+                    match sample_flight(
+                        wl.reflectance(volume.sigma_t()),
+                        wl.reflectance(volume.sigma_s()),
+                        t_max,
+                        throughput,
+                        u,
+                    ) {
                         Flight::Scatter { t, weight } => Some((t, weight)),
                         Flight::Pass { weight } => {
                             throughput *= weight;
@@ -85,7 +92,7 @@ pub fn radiance<const MEDIA: bool>(
                 let p = ray.o + ray.d * (t / length);
                 let phase = volume.phase();
                 if sample_lights {
-                    let direct = sample_medium(scene, settings, (p, wo), phase, media, sampler);
+                    let direct = sample_medium(scene, settings, (p, wo), phase, media, sampler, wl);
                     check(NanCause::LightSample, direct.radiance);
                     out.radiance += throughput * direct.radiance;
                     out.rays += direct.shadow_ray as u32;
@@ -104,22 +111,22 @@ pub fn radiance<const MEDIA: bool>(
         } else if let Some(hit) = hit
             && scene.features.volumes
         {
-            throughput *= transmittance(media.sigma_t(&scene.materials), hit.t * ray.d.length());
+            throughput *= transmittance(wl.reflectance(media.sigma_t(&scene.materials)), hit.t * ray.d.length());
         }
         let Some(hit) = hit else {
-            out.radiance += throughput * escaped(scene, settings, ray.d, last, &media);
+            out.radiance += throughput * escaped(scene, settings, ray.d, last, &media, wl);
             break;
         };
         let surface = scene.surface(&hit);
 
         // Emission found by the path itself.
         if surface.ng.dot(ray.d) < 0.0 {
-            out.radiance += throughput * emitted(scene, settings, &surface, -ray.d, travelled + hit.t, last);
+            out.radiance += throughput * emitted(scene, settings, &surface, -ray.d, travelled + hit.t, last, wl);
         }
         if depth == settings.max_depth && !scene.features.see_through {
             break;
         }
-        let vertex = Vertex::new(scene, settings, surface, ray.d, media);
+        let vertex = Vertex::new(scene, settings, surface, ray.d, media, wl);
         if depth == settings.max_depth {
             // No bounce is left, but light passing straight through still goes on.
             let Some(passed) = vertex.bsdf.null_transmission(vertex.wo) else { break };
@@ -127,7 +134,7 @@ pub fn radiance<const MEDIA: bool>(
             if passed.is_black() || crossings > MAX_CROSSINGS {
                 break;
             }
-            throughput *= passed;
+            throughput *= wl.reflectance(passed);
             travelled += hit.t;
             media = vertex.media_after(scene, true);
             ray = Ray { o: vertex.behind, d: ray.d, tmax: f32::INFINITY };
@@ -136,7 +143,7 @@ pub fn radiance<const MEDIA: bool>(
 
         // Light sampling: one shadow ray towards a light chosen by power.
         if sample_lights {
-            let direct = sample_direct(scene, settings, &vertex, sampler);
+            let direct = sample_direct(scene, settings, &vertex, sampler, wl);
             check(NanCause::LightSample, direct.radiance);
             out.radiance += throughput * direct.radiance;
             out.rays += direct.shadow_ray as u32;
@@ -149,7 +156,7 @@ pub fn radiance<const MEDIA: bool>(
         let Some(bs) = sampling.sample(&vertex.bsdf, vertex.wo, u_lobe, u) else { break };
         check(NanCause::BsdfSample, bs.weight);
         let Some((d, origin, crosses)) = vertex.leave(bs.wi) else { break };
-        throughput *= bs.weight;
+        throughput *= wl.reflectance(bs.weight);
         media = vertex.media_after(scene, crosses);
         ray = Ray { o: origin, d, tmax: f32::INFINITY };
         if bs.flags.contains(LobeFlags::NULL) {

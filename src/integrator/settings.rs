@@ -65,6 +65,25 @@ crate::choice_enum!(Integrator {
     Distribution = "distribution": "distribution ray tracing, branching at every hit",
 });
 
+/// Whether paths carry RGB or sampled wavelengths.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Spectral {
+    /// Spectral only where the scene needs it (a dispersive material).
+    #[default]
+    Auto,
+    /// Always spectral (hero-wavelength sampling).
+    On,
+    /// Always RGB: dispersive materials refract every wavelength alike, at their index n_d.
+    Off,
+}
+
+crate::choice_enum!(Spectral {
+    Auto = "auto": "spectral only for scenes with dispersive materials",
+    On = "on": "always spectral (hero wavelengths)",
+    Off = "off": "always RGB (dispersion ignored)",
+});
+
 /// How distribution ray tracing chooses its hemisphere directions at a hit.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
@@ -125,6 +144,8 @@ crate::params! {
         allow_expensive: bool = false, ["allow-expensive", "render anyway (over the ray budget)", Estimator, Domain::Switch, |s| distribution(s) && s.rays_per_sample_bound() > DRT_RAY_BUDGET],
         /// Draw directions in proportion to the BSDF (on) or uniformly over the hemisphere (off).
         importance_sampling: bool = true, ["importance", "importance sampling", Estimator, Domain::Switch, always],
+        /// Transport in RGB or at sampled wavelengths (auto: spectral for dispersive scenes).
+        spectral: Spectral = Spectral::Auto, ["spectral", "spectral", Estimator, Domain::Choice(Spectral::CHOICES), always],
         /// Light sampling strategy: none, explicit (no double counting), or MIS.
         light_sampling: LightSampling = LightSampling::Mis, ["lights", "light sampling", Estimator, Domain::Choice(LightSampling::CHOICES), always],
         /// Sequence of the sample numbers: independent, or Owen-scrambled Sobol.
@@ -165,6 +186,16 @@ impl fmt::Display for InvalidSettings {
 impl std::error::Error for InvalidSettings {}
 
 impl Settings {
+    /// Whether paths should carry wavelengths, in a scene with (`dispersion`) or without a
+    /// dispersive material.
+    pub fn wants_spectral(&self, dispersion: bool) -> bool {
+        match self.spectral {
+            Spectral::On => true,
+            Spectral::Auto => dispersion,
+            Spectral::Off => false,
+        }
+    }
+
     /// The parameter table.
     pub fn table() -> &'static [Param<Settings>] {
         SETTINGS

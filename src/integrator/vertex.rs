@@ -7,6 +7,7 @@ use super::settings::Settings;
 use crate::bsdf::Bsdf;
 use crate::math::frame::Frame;
 use crate::scene::{Scene, Surface, shading::bend_normal};
+use crate::spectrum::Wavelengths;
 use glam::Vec3;
 
 /// Shading frame at `surface` for a ray arriving from `wo`, turned to the side it arrived
@@ -41,14 +42,27 @@ pub struct Vertex<'a> {
 
 impl<'a> Vertex<'a> {
     /// The vertex where a ray travelling along `d` meets `surface`.
-    pub fn new(scene: &'a Scene, settings: &Settings, surface: Surface, d: Vec3, media: Media) -> Self {
+    pub fn new(
+        scene: &'a Scene,
+        settings: &Settings,
+        surface: Surface,
+        d: Vec3,
+        media: Media,
+        wl: &mut Wavelengths,
+    ) -> Self {
         let wo_world = -d;
         let front = surface.ng.dot(wo_world) > 0.0;
         let frame = shading_frame(&surface, front, wo_world);
         let material = &scene.materials[surface.material as usize];
         let outside_ior =
             if scene.features.volumes { media.outside_ior(&scene.materials, surface.material, front) } else { 1.0 };
-        let bsdf = material.bsdf(scene.refs(), &surface, front, outside_ior);
+        // A dispersive interface bends each wavelength its own way: the hero's index is
+        // used and the other wavelengths end (pbrt-v4's TerminateSecondary).
+        let wavelength = wl.hero().filter(|_| scene.features.dispersion && material.is_dispersive());
+        let bsdf = material.bsdf(scene.refs(), &surface, (front, outside_ior), wavelength);
+        if wavelength.is_some() {
+            wl.terminate_secondary();
+        }
         let origin = scene.reflection_origin(&surface, front, settings.terminator, settings.offset_origins);
         let behind = if bsdf.transmits() {
             scene.reflection_origin(&surface, !front, false, settings.offset_origins)

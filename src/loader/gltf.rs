@@ -32,6 +32,7 @@ const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_emissive_strength",
     "KHR_materials_specular",
     "KHR_materials_ior",
+    "KHR_materials_dispersion",
     "KHR_materials_transmission",
     "KHR_materials_volume",
     "KHR_materials_volume_scatter",
@@ -757,6 +758,21 @@ fn convert_material(m: &gltf::Material, texture_count: usize, warnings: &mut War
         let scatter = m.extension_value("KHR_materials_volume_scatter");
         mat.volume =
             Some(convert_volume(&mat.name, v.attenuation_color(), v.attenuation_distance(), scatter, warnings));
+    }
+    if let Some(d) = m.extension_value("KHR_materials_dispersion") {
+        let dispersion = factor(d, "dispersion", 0.0);
+        mat.dispersion = if dispersion.is_finite() && dispersion >= 0.0 {
+            dispersion
+        } else {
+            warnings.add(format!("material {:?}: dispersion {dispersion} must be >= 0: none used", mat.name));
+            0.0
+        };
+        if mat.dispersion > 0.0 && mat.volume.is_none() {
+            warnings.add(format!(
+                "material {:?}: dispersion needs KHR_materials_volume (a thin wall does not bend light): ignored",
+                mat.name
+            ));
+        }
     }
     if let Some(t) = m.extension_value("KHR_materials_diffuse_transmission") {
         mat.diffuse_transmission = factor(t, "diffuseTransmissionFactor", 0.0).clamp(0.0, 1.0);

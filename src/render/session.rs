@@ -297,6 +297,13 @@ fn check_job(job: &Job, limits: &Limits) -> Result<(), SessionError> {
             job.scene.name
         ))));
     }
+    if job.settings.integrator == Integrator::Distribution && job.settings.wants_spectral(job.scene.features.dispersion)
+    {
+        return Err(SessionError::Settings(InvalidSettings(format!(
+            "{}: distribution ray tracing is RGB only; use --integrator path, or --spectral off to ignore dispersion",
+            job.scene.name
+        ))));
+    }
     let (width, height) = (job.settings.width, job.settings.height);
     let bytes = film_bytes(width, height);
     if bytes > limits.memory {

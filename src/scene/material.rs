@@ -95,6 +95,9 @@ pub struct Material {
     pub specular_color_tex: Option<TexRef>,
     /// Index of refraction of the dielectric (KHR_materials_ior; 1.5 by default).
     pub ior: f32,
+    /// KHR_materials_dispersion: 20 / V_d, V_d the Abbe number (0: the same index at every
+    /// wavelength).
+    pub dispersion: f32,
     /// KHR_materials_transmission factor.
     pub transmission: f32,
     /// Texture whose R channel scales `transmission`.
@@ -166,6 +169,7 @@ impl Default for Material {
             specular_color: Vec3::ONE,
             specular_color_tex: None,
             ior: 1.5,
+            dispersion: 0.0,
             transmission: 0.0,
             transmission_tex: None,
             volume: None,
@@ -202,6 +206,25 @@ impl Material {
     /// with ior 1 it is index-matched: light crosses it unchanged.
     pub fn dielectric(name: &str, ior: f32, volume: Option<Volume>) -> Self {
         Self { name: name.into(), metallic: 0.0, roughness: 0.0, transmission: 1.0, ior, volume, ..Self::default() }
+    }
+
+    /// Whether the index of refraction varies with wavelength where light crosses.
+    pub fn is_dispersive(&self) -> bool {
+        self.dispersion > 0.0
+            && self.volume.is_some()
+            && self.transmission > 0.0
+            && self.metallic < 1.0
+            && self.ior != 1.0
+    }
+
+    /// Index of refraction at `lambda` nm (KHR_materials_dispersion): n_d + (n_d - 1) / V_d
+    /// (523655 / lambda^2 - 1.5168), at least 1, with V_d = 20 / dispersion.
+    pub fn ior_at(&self, lambda: f32) -> f32 {
+        if self.dispersion <= 0.0 {
+            return self.ior;
+        }
+        let abbe = 20.0 / self.dispersion;
+        (self.ior + (self.ior - 1.0) / abbe * (523_655.0 / (lambda * lambda) - 1.5168)).max(1.0)
     }
 
     /// Whether the BSDF has more than a Lambertian lobe.
@@ -283,7 +306,13 @@ impl Material {
     /// `bsdf::SMOOTH_ALPHA` become delta lobes in the BSDF. `features` are the scene's: in
     /// a scene without textures or glossy lobes their checks are skipped.
     #[inline]
-    pub fn bsdf(&self, scene: SceneRefs<'_>, surface: &Surface, front: bool, outside_ior: f32) -> Bsdf<'_> {
+    pub fn bsdf(
+        &self,
+        scene: SceneRefs<'_>,
+        surface: &Surface,
+        (front, outside_ior): (bool, f32),
+        wavelength: Option<f32>,
+    ) -> Bsdf<'_> {
         let SceneRefs { textures, images, features } = scene;
         if let Some(m) = &self.measured {
             return Bsdf::Measured(&m.table);
@@ -318,8 +347,12 @@ impl Material {
             self.diffuse_transmission * lookup(self.diffuse_transmission_tex, ColorSpace::Linear).map_or(1.0, |t| t.w);
         let diffuse_transmission_color = self.diffuse_transmission_color
             * lookup(self.diffuse_transmission_color_tex, ColorSpace::Srgb).map_or(Vec3::ONE, |t| t.xyz());
-        let f0 = ((self.ior - 1.0) / (self.ior + 1.0)).powi(2);
-        let ior = self.ior.max(1e-3);
+        let ior = match wavelength {
+            Some(lambda) => self.ior_at(lambda),
+            None => self.ior,
+        };
+        let f0 = ((ior - 1.0) / (ior + 1.0)).powi(2);
+        let ior = ior.max(1e-3);
         let eta = match (self.volume, front) {
             (None, _) => ior,
             (Some(_), true) => ior / outside_ior,

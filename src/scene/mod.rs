@@ -50,10 +50,13 @@ pub struct Features {
     /// Some surface transmits, so it may let light straight through (a thin wall, or an
     /// index-matched interface): shadow rays test what they cross instead of stopping.
     pub see_through: bool,
+    /// Some material's index of refraction varies with wavelength (KHR_materials_dispersion):
+    /// the spectral kernel runs.
+    pub dispersion: bool,
 }
 
 impl Features {
-    /// Every effect switched on: the general path, for comparisons.
+    /// Every effect switched on: the general path, for comparisons (spectral transport aside).
     pub const ALL: Self = Self {
         emissive: true,
         punctual: true,
@@ -64,6 +67,9 @@ impl Features {
         environment: true,
         media: true,
         see_through: true,
+        // Dispersion chooses a different estimator (the spectral kernel), not an effect the
+        // kernel skips when absent: it stays as the scene has it.
+        dispersion: false,
     };
 }
 
@@ -336,6 +342,7 @@ impl Scene {
             environment: self.environment.is_some(),
             media: used.iter().any(|m| m.is_scattering()),
             see_through: used.iter().any(|m| m.is_transmissive()),
+            dispersion: used.iter().any(|m| m.is_dispersive()),
         };
         if self.features.glossy {
             // Tabulate the GGX albedos the materials' roughnesses read here (on the loading

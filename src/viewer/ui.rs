@@ -83,7 +83,7 @@ fn status(ui: &mut Ui, state: &ViewerState, ui_state: &UiState) {
             ui.label("first pass...");
         }
     }
-    ui.label(format!("simulating {}", crate::integrator::simulated_effects(&state.scene)));
+    ui.label(format!("simulating {}", crate::integrator::simulated_effects(&state.scene, &state.settings)));
     let latency = state.latencies.last().map_or("-".into(), |d| format!("{:.0} ms", d.0.as_secs_f64() * 1e3));
     ui.label(format!("UI frame {:.1} ms, restart to image {latency}", ui_state.frame_ms));
 }

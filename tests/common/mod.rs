@@ -2,6 +2,7 @@
 //! target, and statistical thresholds.
 #![allow(dead_code)]
 
+use glam::DVec3;
 use lucent::integrator::Settings;
 use lucent::render::{Job, RenderSession, Snapshot};
 use lucent::scene::{Scene, camera::Camera};
@@ -139,4 +140,35 @@ pub fn from_half_diff(theta_h: f64, theta_d: f64, phi_d: f64, phi_h: f64) -> (gl
     let h = DVec3::new(theta_h.sin() * phi_h.cos(), theta_h.sin() * phi_h.sin(), theta_h.cos());
     let wo = 2.0 * wi.dot(h) * h - wi;
     (wo.as_vec3(), wi.as_vec3())
+}
+
+/// Per-block means and variances of the mean of 8x8-pixel blocks.
+pub fn blocks(s: &Snapshot) -> Vec<(DVec3, DVec3)> {
+    let per_side = s.width / 8;
+    let mut out = vec![(DVec3::ZERO, DVec3::ZERO); (per_side * per_side) as usize];
+    for y in 0..s.height {
+        for x in 0..s.width {
+            let i = (y * s.width + x) as usize;
+            let b = &mut out[((y / 8) * per_side + x / 8) as usize];
+            b.0 += s.mean[i].as_dvec3() / 64.0;
+            b.1 += s.variance[i].as_dvec3() / (64.0 * 64.0);
+        }
+    }
+    out
+}
+
+/// Asserts the block means of `test` agree with `reference` (z-tests at `z_max`).
+pub fn assert_blocks_agree(test: &Snapshot, reference: &Snapshot, z_max: f64, label: &str) {
+    assert_eq!(test.rejected, 0, "{label}: NaN/Inf samples");
+    for (b, (t, r)) in blocks(test).iter().zip(blocks(reference)).enumerate() {
+        for c in 0..3 {
+            let se = (t.1[c] + r.1[c]).sqrt();
+            if se == 0.0 {
+                assert_eq!(t.0[c], r.0[c], "{label}: block {b} channel {c}: noiseless blocks differ");
+                continue;
+            }
+            let z = (t.0[c] - r.0[c]) / se;
+            assert!(z.abs() < z_max, "{label}: block {b} channel {c}: {:.4} vs {:.4} (z = {z:.2})", t.0[c], r.0[c]);
+        }
+    }
 }

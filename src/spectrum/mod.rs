@@ -1,12 +1,77 @@
 //! The quantity light transport carries: what a BSDF returns, a light emits, a path's
-//! throughput holds and the film receives. Today it is linear Rec. 709 RGB; spectral
-//! rendering changes what a `Spectrum` is here, and the two places where colours enter
-//! (`from_rgb`, `from_illuminant_rgb`) and leave (`to_rgb`) transport.
+//! throughput holds and the film receives, in linear Rec. 709 RGB or at a path's sampled
+//! wavelengths (`Wavelengths`, `sampled`: hero-wavelength sampling; `upsample`: RGB to
+//! spectrum; `cie`: the CIE 1931 observer and D65).
+
+pub mod cie;
+pub mod sampled;
+pub mod upsample;
 
 use glam::Vec3;
 use std::ops::{Add, AddAssign, Div, DivAssign, Mul, MulAssign, Sub};
 
-/// Radiance, reflectance or throughput, per colour channel (linear Rec. 709 RGB).
+/// What a path's spectra hold: linear sRGB channels, or the radiance at the path's sampled
+/// wavelengths. Scene parts (BSDFs, lights, the environment, media coefficients) return
+/// RGB; the integrator turns what they return into the path's spectra through `reflectance`
+/// and `illuminant`. Because the upsampling (`upsample`) is linear and turns 1 into 1, that
+/// equals upsampling their inputs for every quantity affine in each colour, which covers
+/// the BSDFs' lobes (the multiple-scattering Fresnel compensation excepted, a few percent
+/// of rough metals' energy) and tabulated RGB data; extinction is upsampled before it is
+/// exponentiated.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Wavelengths {
+    /// The RGB kernel: spectra are linear sRGB and conversions do nothing.
+    Rgb,
+    /// The spectral kernel's wavelengths for this path.
+    Sampled(sampled::Sampled),
+}
+
+impl Wavelengths {
+    /// A reflectance, transmittance, BSDF value or coefficient returned as RGB, on this path.
+    #[inline]
+    pub fn reflectance(&self, rgb: Spectrum) -> Spectrum {
+        match self {
+            Wavelengths::Rgb => rgb,
+            Wavelengths::Sampled(s) => s.reflectance(rgb.0),
+        }
+    }
+
+    /// Emitted radiance returned as RGB, on this path.
+    #[inline]
+    pub fn illuminant(&self, rgb: Spectrum) -> Spectrum {
+        match self {
+            Wavelengths::Rgb => rgb,
+            Wavelengths::Sampled(s) => s.illuminant(rgb.0),
+        }
+    }
+
+    /// The hero wavelength (nm) of a spectral path.
+    pub fn hero(&self) -> Option<f32> {
+        match self {
+            Wavelengths::Rgb => None,
+            Wavelengths::Sampled(s) => Some(s.lambda[0]),
+        }
+    }
+
+    /// Ends all wavelengths but the hero (a no-op for RGB).
+    pub fn terminate_secondary(&mut self) {
+        if let Wavelengths::Sampled(s) = self {
+            s.terminate_secondary();
+        }
+    }
+
+    /// Linear sRGB of the radiance `l` carried on this path.
+    #[inline]
+    pub fn to_rgb(&self, l: Spectrum) -> Spectrum {
+        match self {
+            Wavelengths::Rgb => l,
+            Wavelengths::Sampled(s) => Spectrum(s.to_rgb(l)),
+        }
+    }
+}
+
+/// Radiance, reflectance or throughput, per colour channel (linear Rec. 709 RGB) or per
+/// sampled wavelength (see `Wavelengths`).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Spectrum(Vec3);
 
