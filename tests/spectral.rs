@@ -409,3 +409,39 @@ fn a_prism_bends_blue_more_than_red_by_the_angle_snells_law_predicts() {
     let tolerance = z * (sa * sa + sb * sb).sqrt() + (ea - eb).abs();
     assert!((a - b).abs() < tolerance, "total light with dispersion {a:.5}, without {b:.5} (within {tolerance:.5})");
 }
+
+#[test]
+fn dispersion_is_read_from_gltf_and_bad_values_are_refused_with_a_warning() {
+    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/docs/scenes/prism.gltf")).unwrap();
+    let load = |edit: &dyn Fn(&mut serde_json::Value)| {
+        let mut json: serde_json::Value = serde_json::from_str(&text).unwrap();
+        let flint = json["materials"].as_array_mut().unwrap().iter_mut().find(|m| m["name"] == "flint").unwrap();
+        edit(flint);
+        lucent::loader::gltf::load_slice(json.to_string().as_bytes(), "prism").unwrap()
+    };
+    let flint = |desc: &SceneDesc| desc.materials.iter().find(|m| m.name == "flint").unwrap().clone();
+    let good = load(&|_| {});
+    assert_eq!(flint(&good).dispersion, 1.0);
+    assert!(flint(&good).is_dispersive() && good.warnings.is_empty(), "{:?}", good.warnings);
+    // n(lambda) from the extension's formula: at 587.6 nm (the d line) it is n_d.
+    assert!((flint(&good).ior_at(587.56) - 1.7).abs() < 1e-3);
+    assert!(flint(&good).ior_at(450.0) > flint(&good).ior_at(650.0));
+    let negative = load(&|m| m["extensions"]["KHR_materials_dispersion"]["dispersion"] = serde_json::json!(-3.0));
+    assert_eq!(flint(&negative).dispersion, 0.0);
+    assert!(
+        negative.warnings.iter().any(|w| w.contains("\"flint\"") && w.contains("dispersion -3")),
+        "{:?}",
+        negative.warnings
+    );
+    let thin = load(&|m| {
+        m["extensions"].as_object_mut().unwrap().remove("KHR_materials_volume");
+    });
+    assert!(!flint(&thin).is_dispersive());
+    assert!(
+        thin.warnings.iter().any(|w| w.contains("\"flint\"") && w.contains("KHR_materials_volume")),
+        "{:?}",
+        thin.warnings
+    );
+    let scene = Arc::new(Scene::build(thin));
+    assert!(!scene.features.dispersion, "a thin wall needs no spectral kernel");
+}
