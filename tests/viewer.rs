@@ -105,6 +105,23 @@ fn editing_a_medium_switches_the_volumetric_kernel_without_rebuilding_the_bvh() 
 }
 
 #[test]
+fn editing_dispersion_switches_the_spectral_kernel_without_rebuilding_the_bvh() {
+    let desc = lucent::loader::gltf::load(Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/docs/scenes/prism.gltf")));
+    let scene = Scene::build(desc.unwrap());
+    let flint = scene.materials.iter().position(|m| m.name == "flint").unwrap();
+    let settings = Settings { width: 16, height: 16, ..Settings::default() };
+    assert!(lucent::integrator::is_spectral(&scene, &settings));
+    let mut state = ViewerState::new(scene, None, settings, true, Display::default(), None, Some(1)).unwrap();
+    state.sync();
+    let geometry = Arc::clone(&state.scene.geometry);
+    state.edit(|materials, _| materials[flint].dispersion = 0.0);
+    assert!(!lucent::integrator::is_spectral(&state.scene, &state.settings), "no dispersion: the RGB kernel");
+    assert!(Arc::ptr_eq(&geometry, &state.scene.geometry) && state.sync(), "restarted, BVH kept");
+    state.edit(|materials, _| materials[flint].dispersion = 0.5);
+    assert!(lucent::integrator::is_spectral(&state.scene, &state.settings) && state.sync());
+}
+
+#[test]
 fn picking_finds_the_material_under_the_cursor_and_preview_lowers_the_resolution() {
     let mut state = viewer();
     let name = |m: Option<u32>| m.map(|i| state.scene.materials[i as usize].name.clone());

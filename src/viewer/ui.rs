@@ -445,6 +445,9 @@ fn editors(ui: &mut Ui, state: &mut ViewerState) {
         ui.add(egui::Slider::new(&mut m.roughness, 0.0..=1.0).text("roughness"));
         ui.add(egui::Slider::new(&mut m.specular, 0.0..=1.0).text("specular"));
         ui.add(egui::Slider::new(&mut m.ior, 1.0..=3.0).text("IOR"));
+        if m.volume.is_some() && m.transmission > 0.0 {
+            ui.add(egui::Slider::new(&mut m.dispersion, 0.0..=2.0).text("dispersion (20 / Abbe number)"));
+        }
         if let Some(e) = colour_and_amount(ui, m.emissive, "emission", 0.0..=1000.0) {
             m.emissive = e;
         }
