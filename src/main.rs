@@ -12,5 +12,6 @@ fn main() -> ExitCode {
         Command::View(v) => cli::launch(&v).and_then(lucent::viewer::run),
         Command::Render(r) => cli::render::run(&r),
         Command::Bench(b) => cli::bench::run(&b),
+        Command::Merge(m) => cli::merge::run(&m),
     })
 }

@@ -502,7 +502,7 @@ fn the_film_estimate_covers_what_a_session_allocates_and_refuses_a_film_over_the
     let big = Settings { width: 16384, height: 16384, ..settings };
     let session = RenderSession::with_limits(job(), Some(1), Limits { memory: 12_000_000_000 }).unwrap();
     let err = session.set_job(Job { settings: big, ..job() }).unwrap_err().to_string();
-    assert_eq!(err, "image too large: 16384x16384 needs about 28.0 GB for the film, over the memory limit of 12.0 GB");
+    assert_eq!(err, "image too large: 16384x16384 needs about 34.5 GB for the film, over the memory limit of 12.0 GB");
 }
 
 // --- synthetic scenes ---

@@ -61,7 +61,7 @@ fn a_film_over_the_memory_limit_is_refused_and_the_session_keeps_its_job() {
     let err = session.set_job(Job { scene: Arc::clone(&scene), camera, settings: big }).unwrap_err();
     assert_eq!(
         err.to_string(),
-        "image too large: 4096x4096 needs about 1.8 GB for the film, over the memory limit of 1.1 GB"
+        "image too large: 4096x4096 needs about 2.2 GB for the film, over the memory limit of 1.1 GB"
     );
     assert_eq!(session.wait_until_done().width, 64, "the refused job did not replace the running one");
     let new = RenderSession::with_limits(Job { scene: Arc::clone(&scene), camera, settings: big }, Some(1), limits);

@@ -27,6 +27,22 @@ pub enum Command {
     Render(RenderArgs),
     /// Measure samples/s and rays/s: kernel specialisation, or robustness mechanisms.
     Bench(BenchArgs),
+    /// Add pieces of a render (`render --samples A..B --out X.part`) into its image.
+    Merge(MergeArgs),
+}
+
+/// `lucent merge`.
+#[derive(Args, Debug)]
+pub struct MergeArgs {
+    /// Piece files written by `lucent render --samples A..B --out NAME.part`.
+    #[arg(required = true)]
+    pub pieces: Vec<PathBuf>,
+    /// Output image: .png (tonemapped sRGB) or .exr (linear float).
+    #[arg(long, short)]
+    pub out: PathBuf,
+    /// Samples per pixel the pieces must add up to (missing ones are named) [default: what they hold].
+    #[arg(long)]
+    pub spp: Option<u32>,
 }
 
 /// A numerical-robustness mechanism that `--without` can switch off.
@@ -165,6 +181,11 @@ pub struct RenderOptions {
 }
 
 impl RenderOptions {
+    /// Whether the setting named `name` (its command-line name) was given.
+    pub fn settings_given(&self, name: &str) -> bool {
+        self.params.settings.iter().any(|&(n, _)| n == name)
+    }
+
     /// The view (settings, display, camera, environment) from the view file (or defaults),
     /// overridden by every option given; `default_spp` is the sample target when neither
     /// the command line nor the view file sets one.
@@ -226,9 +247,13 @@ pub struct RenderArgs {
     /// --time, --spp defaults to 64).
     #[arg(long, allow_negative_numbers = true)]
     pub time: Option<f64>,
-    /// Output file: .png (tonemapped sRGB) or .exr (linear float).
+    /// Output file: .png (tonemapped sRGB), .exr (linear float), or .part (a piece of the
+    /// render's sums, for `lucent merge`).
     #[arg(long, short)]
     pub out: PathBuf,
+    /// Render only sample indices A to B-1 of every pixel (a piece; with --out NAME.part).
+    #[arg(long, value_name = "A..B")]
+    pub samples: Option<String>,
     /// Shared render options.
     #[command(flatten)]
     pub options: RenderOptions,

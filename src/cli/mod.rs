@@ -5,6 +5,7 @@
 pub mod args;
 pub mod bench;
 mod convergence;
+pub mod merge;
 mod plot;
 pub mod render;
 

@@ -1,7 +1,9 @@
 //! `lucent render`: open, render progressively to a sample or time budget, write the image.
 
 use super::args::RenderArgs;
-use crate::film::output::{check_writable, write_image};
+use crate::film::output::{check_can_write, check_writable, write_image};
+use crate::film::piece::{self, FORMAT, Header};
+use crate::integrator::Settings;
 use crate::open::{OpenOptions, open};
 use crate::render::{Job, RenderSession, Snapshot};
 use crate::scene::Scene;
@@ -26,9 +28,24 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     {
         return Err(format!("--time {t} must be a positive number of seconds"));
     }
-    check_writable(&args.out).map_err(|e| e.to_string())?;
+    let piece = args.out.extension().is_some_and(|e| e == "part");
+    if piece {
+        check_can_write(&args.out).map_err(|e| e.to_string())?;
+    } else {
+        check_writable(&args.out).map_err(|e| e.to_string())?;
+    }
     let view = args.options.resolve(if args.time.is_none() { Some(64) } else { None })?;
-    let settings = view.settings;
+    let mut settings = view.settings;
+    if let Some(range) = &args.samples {
+        let (a, b) = super::merge::sample_range(range)?;
+        if args.time.is_some() || args.options.settings_given("spp") {
+            return Err("--samples A..B sets the samples: give it without --time and --spp".into());
+        }
+        (settings.first_sample, settings.target_spp) = (a, Some(b - a));
+    }
+    if piece && args.time.is_some() {
+        return Err("a piece (--out NAME.part) needs a sample range or --spp, not --time".into());
+    }
     let target = settings.target_spp;
     if settings.integrator == crate::integrator::Integrator::Distribution {
         let rays = settings.rays_per_sample_bound();
@@ -79,7 +96,25 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     let Some(snap) = latest else {
         return Err("the time budget ended before the first pass completed: give more --time".into());
     };
-    write_image(&args.out, snap.width, snap.height, &snap.mean, &view.display).map_err(|e| e.to_string())?;
+    if piece {
+        let film = snap.film.as_ref().ok_or("the render stopped before its samples were done")?;
+        let header = Header {
+            format: FORMAT,
+            scene: super::merge::scene_hash(args.scene.as_deref())?,
+            settings: toml::to_string(&Settings { first_sample: 0, target_spp: None, ..settings })
+                .map_err(|e| e.to_string())?,
+            camera: format!("{camera:?}"),
+            display: view.display,
+            first: settings.first_sample,
+            count: snap.spp,
+            width: snap.width,
+            height: snap.height,
+            rejected: snap.rejected,
+        };
+        piece::write(&args.out, &header, film).map_err(|e| e.to_string())?;
+    } else {
+        write_image(&args.out, snap.width, snap.height, &snap.mean, &view.display).map_err(|e| e.to_string())?;
+    }
     println!("{}; wrote {}", snap.summary(&scene.name), args.out.display());
     let causes = crate::integrator::nan::report();
     if !causes.is_empty() {

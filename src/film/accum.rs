@@ -1,5 +1,7 @@
-//! Accumulation buffer: per-pixel f64 sums of radiance and its square, owned by tiles so
-//! that workers add samples without locks; NaN or infinite samples are dropped and counted.
+//! Accumulation buffer: per-pixel sums of radiance in 128-bit fixed point (exact, so any
+//! order of additions, and any split of a render into pieces merged later, gives the same
+//! bits) and f64 sums of its square, owned by tiles so that workers add samples without
+//! locks; NaN or infinite samples are dropped and counted.
 
 use crate::spectrum::Spectrum;
 use glam::{DVec3, UVec2, Vec3};
@@ -7,11 +9,40 @@ use glam::{DVec3, UVec2, Vec3};
 /// Side of a square tile in pixels.
 pub const TILE_SIZE: u32 = 16;
 
+/// Fraction bits of the fixed-point sums: a resolution of 2^-50 (8.9e-16).
+const FRACTION_BITS: i32 = 50;
+
+/// Largest sample magnitude kept (larger ones are clamped to it): 2^46 (7.0e13), so that
+/// 2^30 samples of it still fit in an i128 at 2^50.
+const MAX_SAMPLE: f64 = (1u64 << 46) as f64;
+
+/// A channel value in fixed point, rounded half away from zero. Values below 2^13 in
+/// magnitude (nearly all radiance) take a 64-bit conversion, inline; measured, the 128-bit
+/// one for every value cost the Cornell box 3.7% more instructions per render.
+#[inline]
+fn to_fixed(v: f64) -> i128 {
+    let y = v * (1u64 << FRACTION_BITS) as f64;
+    if y.abs() < (1u64 << 62) as f64 {
+        (y + 0.5f64.copysign(y)) as i64 as i128
+    } else {
+        (v.clamp(-MAX_SAMPLE, MAX_SAMPLE) * (1u64 << FRACTION_BITS) as f64).round() as i128
+    }
+}
+
+/// A fixed-point sum as f64, from its high and low parts: correctly rounded below 2^85
+/// (sums below 2^35), and always the same function of the sum, which is what merging needs.
+/// The compiler's 128-bit conversion routine cost 2% more instructions per render.
+#[inline]
+fn from_fixed(v: i128) -> f64 {
+    let (high, low) = ((v >> 32) as i64, (v & 0xffff_ffff) as u32);
+    (high as f64 * 4_294_967_296.0 + low as f64) / (1u64 << FRACTION_BITS) as f64
+}
+
 /// Running sums of one pixel's samples.
-#[derive(Clone, Copy, Debug, Default)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct PixelSums {
-    /// Sum of radiance samples.
-    pub sum: DVec3,
+    /// Sum of radiance samples, per channel, in fixed point (see `FRACTION_BITS`).
+    pub sum: [i128; 3],
     /// Sum of squared radiance samples (per channel), for variance estimates.
     pub sum_sq: DVec3,
     /// Number of samples added.
@@ -19,9 +50,23 @@ pub struct PixelSums {
 }
 
 impl PixelSums {
+    /// Sum of the radiance samples.
+    pub fn total(&self) -> DVec3 {
+        DVec3::new(from_fixed(self.sum[0]), from_fixed(self.sum[1]), from_fixed(self.sum[2]))
+    }
+
     /// Mean radiance so far (zero before the first sample).
     pub fn mean(&self) -> DVec3 {
-        if self.count == 0 { DVec3::ZERO } else { self.sum / self.count as f64 }
+        if self.count == 0 { DVec3::ZERO } else { self.total() / self.count as f64 }
+    }
+
+    /// Adds another pixel's sums (a piece of the same pixel's samples).
+    pub fn merge(&mut self, other: &PixelSums) {
+        for c in 0..3 {
+            self.sum[c] += other.sum[c];
+        }
+        self.sum_sq += other.sum_sq;
+        self.count += other.count;
     }
 
     /// Estimated variance of the mean (sample variance / n), per channel.
@@ -30,7 +75,8 @@ impl PixelSums {
             return DVec3::ZERO;
         }
         let n = self.count as f64;
-        let var = (self.sum_sq - self.sum * self.sum / n) / (n - 1.0);
+        let sum = self.total();
+        let var = (self.sum_sq - sum * sum / n) / (n - 1.0);
         var.max(DVec3::ZERO) / n
     }
 }
@@ -57,7 +103,9 @@ impl Tile {
         }
         let r = radiance.to_rgb().as_dvec3();
         let px = &mut self.pixels[(local.y * self.size.x + local.x) as usize];
-        px.sum += r;
+        for c in 0..3 {
+            px.sum[c] += to_fixed(r[c]);
+        }
         px.sum_sq += r * r;
         px.count += 1;
     }
@@ -122,6 +170,39 @@ impl Film {
     /// Samples dropped for being NaN or infinite.
     pub fn rejected(&self) -> u64 {
         self.tiles.iter().map(|t| t.rejected).sum()
+    }
+
+    /// Every pixel's sums, row-major.
+    pub fn row_major(&self) -> Vec<PixelSums> {
+        let mut out = vec![PixelSums::default(); (self.width * self.height) as usize];
+        self.for_each_pixel(|x, y, p| out[(y * self.width + x) as usize] = *p);
+        out
+    }
+
+    /// A film holding row-major `pixels` (`width` x `height` of them) and `rejected`
+    /// dropped samples.
+    pub fn from_row_major(width: u32, height: u32, pixels: &[PixelSums], rejected: u64) -> Self {
+        let mut film = Self::new(width, height);
+        for tile in &mut film.tiles {
+            for (i, px) in tile.pixels.iter_mut().enumerate() {
+                let (x, y) = (tile.origin.x + i as u32 % tile.size.x, tile.origin.y + i as u32 / tile.size.x);
+                *px = pixels[(y * width + x) as usize];
+            }
+        }
+        if let Some(t) = film.tiles.first_mut() {
+            t.rejected = rejected;
+        }
+        film
+    }
+
+    /// Adds the sums of `other`, a film of the same size: exact, so pieces merge in any order.
+    pub fn merge(&mut self, other: &Film) {
+        for (tile, theirs) in self.tiles.iter_mut().zip(&other.tiles) {
+            for (px, o) in tile.pixels.iter_mut().zip(&theirs.pixels) {
+                px.merge(o);
+            }
+            tile.rejected += theirs.rejected;
+        }
     }
 }
 

@@ -2,6 +2,7 @@
 
 pub mod accum;
 pub mod output;
+pub mod piece;
 pub mod tonemap;
 
 pub use accum::{Film, Tile};

@@ -47,14 +47,19 @@ fn temp_path(path: &Path) -> PathBuf {
 /// Checks that `path` can be written, before spending time rendering.
 pub fn check_writable(path: &Path) -> Result<Format, OutputError> {
     let format = format_of(path)?;
+    check_can_write(path)?;
+    Ok(format)
+}
+
+/// Checks that a file (of any kind) can be written at `path`.
+pub fn check_can_write(path: &Path) -> Result<(), OutputError> {
     if path.is_dir() {
         return Err(OutputError::Write { path: path.to_owned(), reason: "it is a directory".into() });
     }
     let tmp = temp_path(path);
     std::fs::write(&tmp, b"")
         .and_then(|_| std::fs::remove_file(&tmp))
-        .map_err(|e| OutputError::Write { path: path.to_owned(), reason: e.to_string() })?;
-    Ok(format)
+        .map_err(|e| OutputError::Write { path: path.to_owned(), reason: e.to_string() })
 }
 
 /// Writes `path` through a temporary file beside it that `write` fills and that is then

@@ -164,6 +164,8 @@ crate::params! {
         target_spp: Option<u32> = None, ["spp", "stop at spp", Estimator, Domain::Int { min: 1, max: u32::MAX as u64, optional: true }, always],
         /// Seed of every random stream.
         seed: u64 = 0, ["seed", "seed", Estimator, int(0, u64::MAX), always],
+        /// Index of the first sample of every pixel (a piece of a render split by samples).
+        first_sample: u32 = 0, ["first-sample", "first sample index", Estimator, int(0, u32::MAX as u64), |_| false],
         /// Watertight ray/triangle test (off: obvhs's Moller-Trumbore test, which leaks at edges).
         watertight: bool = true, ["watertight", "watertight triangle test (off: leaks at edges)", Robustness, Domain::Switch, always],
         /// Ray origins offset by the hit point's floating-point error bound (off: shadow acne).

@@ -49,6 +49,8 @@ pub struct Snapshot {
     pub rejected: u64,
     /// Whether the target spp is reached.
     pub done: bool,
+    /// The film's sums, in the last snapshot of a render to a target (for pieces).
+    pub film: Option<Arc<Film>>,
 }
 
 impl Snapshot {
@@ -382,6 +384,8 @@ fn coordinate(shared: &Shared, pool: &rayon::ThreadPool) {
             rays: a.traced,
             rejected: a.film.rejected(),
             done: a.done(),
+            // A finished job adds nothing more: its sums move into the last snapshot.
+            film: a.done().then(|| Arc::new(std::mem::replace(&mut a.film, Film::new(0, 0)))),
         });
         shared.lock().latest = Some(snapshot);
         shared.published.notify_all();
@@ -433,7 +437,7 @@ fn run_pass(shared: &Shared, pool: &rayon::ThreadPool, a: &mut Active) -> bool {
         scene: &a.job.scene,
         settings: &a.job.settings,
         view: &a.view,
-        first: a.spp as u64,
+        first: a.job.settings.first_sample as u64 + a.spp as u64,
         count: a.pass_spp.min(remaining),
         current: &shared.generation,
         generation: a.generation,

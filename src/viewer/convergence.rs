@@ -98,6 +98,7 @@ mod tests {
             rays: 1,
             rejected: 0,
             done: false,
+            film: None,
         }
     }
 
