@@ -150,9 +150,9 @@ fn white_lamp_cornell() -> Arc<Scene> {
     Arc::new(Scene::build(desc))
 }
 
-#[test]
-fn spectral_and_rgb_agree_where_each_path_carries_one_colour() {
-    let scene = white_lamp_cornell();
+/// Renders `scene` by the RGB and the spectral kernel, one bounce, `spp` samples per pixel
+/// (seeds `seed` and `seed + 1`), and asserts their 8x8 blocks agree (z-tests, Sidak).
+fn assert_rgb_and_spectral_agree(scene: &Arc<Scene>, spp: u32, seed: u64, label: &str) {
     let camera = scene.default_camera(1.0);
     let settings = |spectral, seed| Settings {
         width: 48,
@@ -160,13 +160,18 @@ fn spectral_and_rgb_agree_where_each_path_carries_one_colour() {
         max_depth: 1,
         spectral,
         seed,
-        target_spp: Some(256),
+        target_spp: Some(spp),
         ..Settings::default()
     };
     let z_max = common::sidak_z(1e-3, 3 * 36);
-    let rgb = common::render(&scene, camera, settings(Spectral::Off, 1), None);
-    let spectral = common::render(&scene, camera, settings(Spectral::On, 2), None);
-    common::assert_blocks_agree(&spectral, &rgb, z_max, "Cornell box, white lamp, direct light");
+    let rgb = common::render(scene, camera, settings(Spectral::Off, seed), None);
+    let spectral = common::render(scene, camera, settings(Spectral::On, seed + 1), None);
+    common::assert_blocks_agree(&spectral, &rgb, z_max, label);
+}
+
+#[test]
+fn spectral_and_rgb_agree_where_each_path_carries_one_colour() {
+    assert_rgb_and_spectral_agree(&white_lamp_cornell(), 256, 1, "Cornell box, white lamp, direct light");
 }
 
 #[test]
@@ -175,20 +180,7 @@ fn a_textured_model_under_a_white_sky_agrees_in_rgb_and_spectral() {
     let white = Environment::load(EnvSettings { background: Vec3::ONE, ..EnvSettings::default() }).unwrap();
     let scene = Arc::new(Scene::build(desc).with_environment(Some(white)));
     assert!(scene.features.textures);
-    let camera = scene.default_camera(1.0);
-    let settings = |spectral, seed| Settings {
-        width: 48,
-        height: 48,
-        max_depth: 1,
-        spectral,
-        seed,
-        target_spp: Some(128),
-        ..Settings::default()
-    };
-    let z_max = common::sidak_z(1e-3, 3 * 36);
-    let rgb = common::render(&scene, camera, settings(Spectral::Off, 3), None);
-    let spectral = common::render(&scene, camera, settings(Spectral::On, 4), None);
-    common::assert_blocks_agree(&spectral, &rgb, z_max, "BoxTextured under a white sky, one bounce");
+    assert_rgb_and_spectral_agree(&scene, 128, 3, "BoxTextured under a white sky, one bounce");
 }
 
 #[test]

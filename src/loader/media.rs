@@ -44,8 +44,7 @@ fn white() -> [f32; 3] {
 
 /// Where the media sidecar of `scene` would be.
 pub fn path_for(scene: &Path) -> PathBuf {
-    let stem = scene.file_stem().map_or_else(|| "scene".into(), |s| s.to_string_lossy().into_owned());
-    scene.with_file_name(format!("{stem}.media.toml"))
+    super::sidecar::beside(scene, "media")
 }
 
 /// Applies the media sidecar of `scene`, if there is one. A missing or malformed sidecar or

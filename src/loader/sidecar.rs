@@ -23,8 +23,13 @@ struct Sidecar {
 
 /// Where the sidecar of `scene` would be.
 pub fn path_for(scene: &Path) -> PathBuf {
+    beside(scene, "materials")
+}
+
+/// The sidecar `SCENE.<kind>.toml` beside `scene` (shared by the materials and media sidecars).
+pub fn beside(scene: &Path, kind: &str) -> PathBuf {
     let stem = scene.file_stem().map_or_else(|| "scene".into(), |s| s.to_string_lossy().into_owned());
-    scene.with_file_name(format!("{stem}.materials.toml"))
+    scene.with_file_name(format!("{stem}.{kind}.toml"))
 }
 
 /// Applies the sidecar of `scene`, if there is one; the error is one line. Names the file

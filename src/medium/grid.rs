@@ -207,11 +207,16 @@ impl DensityGrid {
         }
     }
 
-    /// Delta tracking: the distance at which a ray from `o` along unit `d` first really
-    /// collides in a medium of extinction `sigma` x density, or None if it passes `t_max`;
-    /// `u` draws uniform numbers.
-    pub fn delta_track(&self, sigma: f32, o: Vec3, d: Vec3, t_max: f32, u: &mut dyn FnMut() -> f32) -> Option<f32> {
-        let mut collision = None;
+    /// Tentative collisions along a ray from `o` along unit `d` up to `t_max` in a medium
+    /// of extinction `sigma` x density: distances drawn against each cell's majorant
+    /// (pbrt-v4's SampleT_maj). `visit(t, density / majorant, u)` sees each one and returns
+    /// false to stop.
+    fn collisions(
+        &self,
+        (sigma, o, d, t_max): (f32, Vec3, Vec3, f32),
+        u: &mut dyn FnMut() -> f32,
+        mut visit: impl FnMut(f32, f32, &mut dyn FnMut() -> f32) -> bool,
+    ) {
         self.march(o, d, t_max, |t0, t1, majorant| {
             let sigma_maj = sigma * majorant;
             if sigma_maj <= 0.0 {
@@ -223,11 +228,24 @@ impl DensityGrid {
                 if t >= t1 {
                     return true;
                 }
-                if u() * majorant < self.density(o + d * t) {
-                    collision = Some(t);
+                if !visit(t, self.density(o + d * t) / majorant, u) {
                     return false;
                 }
             }
+        });
+    }
+
+    /// Delta tracking: the distance at which a ray from `o` along unit `d` first really
+    /// collides in a medium of extinction `sigma` x density, or None if it passes `t_max`;
+    /// `u` draws uniform numbers.
+    pub fn delta_track(&self, sigma: f32, o: Vec3, d: Vec3, t_max: f32, u: &mut dyn FnMut() -> f32) -> Option<f32> {
+        let mut collision = None;
+        self.collisions((sigma, o, d, t_max), u, |t, real, u| {
+            let null = u() >= real;
+            if !null {
+                collision = Some(t);
+            }
+            null
         });
         collision
     }
@@ -236,22 +254,9 @@ impl DensityGrid {
     /// `sigma` x density along a ray from `o` along unit `d` up to `t_max`.
     pub fn ratio_track(&self, sigma: f32, o: Vec3, d: Vec3, t_max: f32, u: &mut dyn FnMut() -> f32) -> f32 {
         let mut tr = 1.0f32;
-        self.march(o, d, t_max, |t0, t1, majorant| {
-            let sigma_maj = sigma * majorant;
-            if sigma_maj <= 0.0 {
-                return true;
-            }
-            let mut t = t0;
-            loop {
-                t -= (1.0 - u()).ln() / sigma_maj;
-                if t >= t1 {
-                    return true;
-                }
-                tr *= 1.0 - self.density(o + d * t) / majorant;
-                if tr <= 0.0 {
-                    return false;
-                }
-            }
+        self.collisions((sigma, o, d, t_max), u, |_, real, _| {
+            tr *= 1.0 - real;
+            tr > 0.0
         });
         tr.max(0.0)
     }
