@@ -13,5 +13,6 @@ fn main() -> ExitCode {
         Command::Render(r) => cli::render::run(&r),
         Command::Bench(b) => cli::bench::run(&b),
         Command::Merge(m) => cli::merge::run(&m),
+        Command::Farm(cli::args::FarmCommand::Slurm(f)) => cli::farm::run(&f),
     })
 }

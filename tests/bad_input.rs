@@ -485,7 +485,7 @@ fn the_film_estimate_covers_what_a_session_allocates_and_refuses_a_film_over_the
     let scene = Arc::new(Scene::build(builtin::cornell_box()));
     let camera = scene.default_camera(1.0);
     let settings = Settings { width: 320, height: 240, target_spp: Some(4), ..Settings::default() };
-    let job = || Job { scene: Arc::clone(&scene), camera, settings };
+    let job = || Job { scene: Arc::clone(&scene), camera, settings, window: None };
     let limits = Limits { memory: film_bytes(320, 240) };
     let (snapshot, peak) = peak_of(|| RenderSession::with_limits(job(), Some(2), limits).unwrap().wait_until_done());
     assert_eq!(snapshot.spp, 4);
@@ -502,7 +502,10 @@ fn the_film_estimate_covers_what_a_session_allocates_and_refuses_a_film_over_the
     let big = Settings { width: 16384, height: 16384, ..settings };
     let session = RenderSession::with_limits(job(), Some(1), Limits { memory: 12_000_000_000 }).unwrap();
     let err = session.set_job(Job { settings: big, ..job() }).unwrap_err().to_string();
-    assert_eq!(err, "image too large: 16384x16384 needs about 34.5 GB for the film, over the memory limit of 12.0 GB");
+    assert_eq!(
+        err,
+        "image too large: 16384x16384 needs about 34.5 GB for the film, over the memory limit of 12.0 GB: render it in windows (lucent render --region) and merge them"
+    );
 }
 
 // --- synthetic scenes ---

@@ -1,7 +1,7 @@
-//! A render split into pieces by sample range (`lucent render --samples A..B --out X.part`)
-//! merges (`lucent merge`) to the image the single process makes, bit for bit; pieces of
-//! another render, overlapping or missing ranges and damaged piece files are refused in one
-//! line, and no output is written.
+//! A render split into pieces by sample range and by window (`lucent render --samples A..B
+//! --region X0,Y0,X1,Y1 --out X.part`) merges (`lucent merge`) to the image the single
+//! process makes, bit for bit; pieces of another render, overlapping or missing ranges and
+//! windows and damaged piece files are refused in one line, and no output is written.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -47,16 +47,77 @@ fn pieces_by_sample_range_merge_to_the_single_process_image_bit_for_bit() {
     render(&d.join("b-overlap.part"), &["--samples", "3..9"]);
     render(&d.join("c-other-seed.part"), &["--samples", "9..13", "--seed", "5"]);
     let bad = p("bad.exr");
-    refused(&["merge", &p("a.part"), &p("c.part"), "--out", &bad], "samples 4..9 are missing");
-    refused(&["merge", &p("a.part"), &p("b.part"), "--spp", "13", "--out", &bad], "samples 9..13 are missing");
-    refused(&["merge", &p("a.part"), &p("b-overlap.part"), "--out", &bad], "overlaps");
-    refused(&["merge", &p("a.part"), &p("b.part"), &p("c-other-seed.part"), "--out", &bad], "another render");
+    refused(&["merge", &p("a.part"), &p("c.part"), "--out", &bad], "samples 4..9 of pixels 0,0,24,18 are missing");
+    refused(
+        &["merge", &p("a.part"), &p("b.part"), "--spp", "13", "--out", &bad],
+        "samples 9..13 of pixels 0,0,24,18 are missing",
+    );
+    refused(
+        &["merge", &p("a.part"), &p("b-overlap.part"), "--out", &bad],
+        "both hold samples 3..4 of pixels 0,0,24,18",
+    );
+    refused(&["merge", &p("a.part"), &p("b.part"), &p("c-other-seed.part"), "--out", &bad], "another render than");
+    refused(
+        &["merge", &p("a.part"), &p("c-other-seed.part"), "--out", &bad],
+        "settings differ (seed = 0 against seed = 5)",
+    );
     let bytes = std::fs::read(d.join("a.part")).unwrap();
     std::fs::write(d.join("short.part"), &bytes[..bytes.len() - 7]).unwrap();
     refused(&["merge", &p("short.part"), "--out", &bad], "bytes do not hold");
     std::fs::write(d.join("junk.part"), b"not a piece\n").unwrap();
     refused(&["merge", &p("junk.part"), "--out", &bad], "bad header");
     refused(&["render", "--samples", "5..5", "--out", &p("x.part")], "A < B");
+    assert!(!Path::new(&bad).exists(), "a refused merge writes nothing");
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+/// Reads an EXR's RGB pixels.
+fn exr(path: &Path) -> image::Rgb32FImage {
+    image::open(path).unwrap().into_rgb32f()
+}
+
+#[test]
+fn pieces_by_window_and_sample_range_merge_to_the_single_process_image_bit_for_bit() {
+    let d = dir().join("windows");
+    std::fs::create_dir_all(d.join("pieces")).unwrap();
+    let p = |name: &str| d.join(name).to_str().unwrap().to_owned();
+    render(&d.join("whole.exr"), &["--spp", "6"]);
+    // The top band whole; below it, a left window in two sample ranges and a right window.
+    for (region, samples, name) in [
+        ("0,0,24,7", "0..6", "pieces/top.part"),
+        ("0,7,10,18", "0..2", "pieces/left-a.part"),
+        ("0,7,10,18", "2..6", "pieces/left-b.part"),
+        ("10,7,24,18", "0..6", "pieces/right.part"),
+        ("5,0,15,9", "0..6", "centre.part"),
+    ] {
+        render(&d.join(name), &["--region", region, "--samples", samples]);
+    }
+    let (ok, err) = lucent(&["merge", &p("pieces"), "--out", &p("merged.exr")]);
+    assert!(ok, "{err}");
+    assert_eq!(std::fs::read(d.join("whole.exr")).unwrap(), std::fs::read(d.join("merged.exr")).unwrap());
+
+    // A window rendered to an image is that window of the frame.
+    render(&d.join("crop.exr"), &["--spp", "6", "--region", "5,0,15,9"]);
+    let (whole, crop) = (exr(&d.join("whole.exr")), exr(&d.join("crop.exr")));
+    assert_eq!((crop.width(), crop.height()), (10, 9));
+    for (x, y, px) in crop.enumerate_pixels() {
+        assert_eq!(px, whole.get_pixel(x + 5, y), "pixel {x},{y} of the window");
+    }
+
+    let bad = p("bad.exr");
+    let piece = |name: &str| p(&format!("pieces/{name}.part"));
+    refused(
+        &["merge", &piece("top"), &piece("left-a"), &piece("left-b"), "--out", &bad],
+        "samples 0..6 of pixels 10,7,24,18 are missing",
+    );
+    refused(
+        &["merge", &piece("top"), &piece("left-a"), &piece("right"), "--out", &bad],
+        "samples 2..6 of pixels 0,7,10,18 are missing",
+    );
+    refused(&["merge", &p("pieces"), &p("centre.part"), "--out", &bad], "both hold samples 0..6 of pixels 5,0,10,7");
+    let size = ["--width", "24", "--height", "18", "--spp", "1", "--out"];
+    refused(&[&["render", "--region", "0,0,25,18"], &size[..], &[&p("x.part")]].concat(), "outside the 24x18 frame");
+    refused(&[&["render", "--region", "4,4,4,8"], &size[..], &[&p("x.part")]].concat(), "empty");
     assert!(!Path::new(&bad).exists(), "a refused merge writes nothing");
     let _ = std::fs::remove_dir_all(&d);
 }

@@ -16,7 +16,8 @@ fn a_new_job_restarts_accumulation_without_stale_samples() {
     let scene = Arc::new(Scene::build(builtin::cornell_box()));
     let camera = scene.default_camera(1.0);
     let first = Settings { width: 32, height: 32, seed: 1, ..Settings::default() };
-    let session = RenderSession::new(Job { scene: Arc::clone(&scene), camera, settings: first }, Some(2)).unwrap();
+    let session =
+        RenderSession::new(Job { scene: Arc::clone(&scene), camera, settings: first, window: None }, Some(2)).unwrap();
     let g1 = session.generation();
     let before = session.wait_for_update(None, Duration::from_secs(30)).expect("a first pass");
     assert_eq!(before.generation, g1);
@@ -24,7 +25,7 @@ fn a_new_job_restarts_accumulation_without_stale_samples() {
     let mut moved = camera;
     moved.position.x += 0.05;
     let second = Settings { seed: 2, max_depth: 3, target_spp: Some(16), ..first };
-    let g2 = session.set_job(Job { scene: Arc::clone(&scene), camera: moved, settings: second }).unwrap();
+    let g2 = session.set_job(Job { scene: Arc::clone(&scene), camera: moved, settings: second, window: None }).unwrap();
     assert!(g2 > g1, "a change bumps the generation");
     assert!(session.snapshot().is_none_or(|s| s.generation == g2), "no stale snapshot is handed out");
     let after = session.wait_until_done();
@@ -44,7 +45,9 @@ fn invalid_settings_are_refused() {
         Settings { firefly_clamp: Some(f32::NAN), ..Settings::default() },
         Settings { target_spp: Some(0), ..Settings::default() },
     ] {
-        assert!(RenderSession::new(Job { scene: Arc::clone(&scene), camera, settings: bad }, None).is_err());
+        assert!(
+            RenderSession::new(Job { scene: Arc::clone(&scene), camera, settings: bad, window: None }, None).is_err()
+        );
     }
 }
 
@@ -54,16 +57,23 @@ fn a_film_over_the_memory_limit_is_refused_and_the_session_keeps_its_job() {
     let camera = scene.default_camera(1.0);
     let small = Settings { width: 64, height: 64, target_spp: Some(2), ..Settings::default() };
     let limits = Limits { memory: 1 << 30 };
-    let session =
-        RenderSession::with_limits(Job { scene: Arc::clone(&scene), camera, settings: small }, Some(1), limits)
-            .unwrap();
+    let session = RenderSession::with_limits(
+        Job { scene: Arc::clone(&scene), camera, settings: small, window: None },
+        Some(1),
+        limits,
+    )
+    .unwrap();
     let big = Settings { width: 4096, height: 4096, ..small };
-    let err = session.set_job(Job { scene: Arc::clone(&scene), camera, settings: big }).unwrap_err();
+    let err = session.set_job(Job { scene: Arc::clone(&scene), camera, settings: big, window: None }).unwrap_err();
     assert_eq!(
         err.to_string(),
-        "image too large: 4096x4096 needs about 2.2 GB for the film, over the memory limit of 1.1 GB"
+        "image too large: 4096x4096 needs about 2.2 GB for the film, over the memory limit of 1.1 GB: render it in windows (lucent render --region) and merge them"
     );
     assert_eq!(session.wait_until_done().width, 64, "the refused job did not replace the running one");
-    let new = RenderSession::with_limits(Job { scene: Arc::clone(&scene), camera, settings: big }, Some(1), limits);
+    let new = RenderSession::with_limits(
+        Job { scene: Arc::clone(&scene), camera, settings: big, window: None },
+        Some(1),
+        limits,
+    );
     assert!(matches!(new, Err(SessionError::TooLarge { width: 4096, height: 4096, .. })));
 }

@@ -257,3 +257,66 @@ fn the_real_window_saves_the_same_image_as_the_headless_renderer() {
     let png = image::open(&shot).unwrap();
     assert_eq!((png.width(), png.height()), (64, 48));
 }
+
+#[test]
+fn the_window_on_a_folder_of_pieces_shows_their_merge_as_they_arrive() {
+    let Some(xvfb) = xvfb_run() else {
+        assert!(
+            std::env::var_os("LUCENT_REQUIRE_XVFB").is_none(),
+            "LUCENT_REQUIRE_XVFB is set but xvfb-run is missing: the viewer test must run"
+        );
+        eprintln!("skipping the pieces viewer test: xvfb-run is not installed");
+        return;
+    };
+    let dir = temp_dir("pieces");
+    let (folder, runtime) = (dir.join("pieces"), dir.join("xdg"));
+    std::fs::create_dir_all(&folder).unwrap();
+    std::fs::create_dir_all(&runtime).unwrap();
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        std::fs::set_permissions(&runtime, std::fs::Permissions::from_mode(0o700)).unwrap();
+    }
+    let lucent = env!("CARGO_BIN_EXE_lucent");
+    let render = |samples: &str, out: &Path| {
+        let args = ["render", "--width", "64", "--height", "48", "--samples", samples, "--out"];
+        assert!(Command::new(lucent).args(args).arg(out).status().unwrap().success());
+    };
+    render("0..4", &folder.join("a.part"));
+    render("4..8", &dir.join("b.part"));
+    let shot = dir.join("shot.png");
+    let mut viewer = Command::new(xvfb)
+        .args(["-a", "-s", "-screen 0 1280x800x24", lucent, "view"])
+        .arg(&folder)
+        .args(["--spp", "8", "--screenshot"])
+        .arg(&shot)
+        .env_remove("WAYLAND_DISPLAY")
+        .env("XDG_RUNTIME_DIR", &runtime)
+        .stderr(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let pid = viewer.id().to_string();
+    std::thread::spawn(move || {
+        // A viewer that never sees its samples would wait forever: end it, failing the test.
+        std::thread::sleep(Duration::from_secs(120));
+        let _ = Command::new("kill").arg(&pid).status();
+    });
+    let stderr = std::io::BufReader::new(viewer.stderr.take().unwrap());
+    let mut log = Vec::new();
+    for line in std::io::BufRead::lines(stderr) {
+        let line = line.unwrap();
+        log.push(line.clone());
+        if line.contains("1 piece merged, 4 spp so far") {
+            // The first piece is on screen: the second arrives, renamed in whole as a farm's do.
+            std::fs::rename(dir.join("b.part"), folder.join("b.part")).unwrap();
+        }
+    }
+    let status = viewer.wait().unwrap();
+    assert!(status.success(), "viewer failed: {log:?}");
+    assert!(log.iter().any(|l| l.contains("2 pieces merged, 8 spp so far")), "{log:?}");
+    let merged = dir.join("merged.png");
+    let out = Command::new(lucent).arg("merge").arg(&folder).arg("--out").arg(&merged).output().unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert_eq!(std::fs::read(&shot).unwrap(), std::fs::read(&merged).unwrap(), "the window saved another image");
+}

@@ -27,14 +27,72 @@ pub enum Command {
     Render(RenderArgs),
     /// Measure samples/s and rays/s: kernel specialisation, or robustness mechanisms.
     Bench(BenchArgs),
-    /// Add pieces of a render (`render --samples A..B --out X.part`) into its image.
+    /// Add pieces of a render (`render --samples A..B --region X0,Y0,X1,Y1 --out X.part`) into its image.
     Merge(MergeArgs),
+    /// Split a render into pieces for a cluster scheduler, and merge them there.
+    #[command(subcommand)]
+    Farm(FarmCommand),
+}
+
+/// `lucent farm`.
+#[derive(Subcommand, Debug)]
+pub enum FarmCommand {
+    /// Write Slurm job scripts: a job array of pieces and a merge that runs after them.
+    Slurm(FarmSlurmArgs),
+}
+
+/// How `lucent farm` cuts a render into pieces.
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Split {
+    /// Sample ranges of the whole frame (each piece holds the whole frame's sums).
+    Samples,
+    /// Bands of rows with every sample (for frames too large for one machine's memory).
+    Regions,
+}
+
+/// `lucent farm slurm`.
+#[derive(Args, Debug)]
+pub struct FarmSlurmArgs {
+    /// glTF scene (.gltf or .glb) [default: the built-in Cornell box].
+    pub scene: Option<PathBuf>,
+    /// Number of pieces (tasks of the job array).
+    #[arg(long)]
+    pub pieces: u32,
+    /// Cut the render by sample ranges or by bands of rows.
+    #[arg(long, value_enum, default_value = "samples")]
+    pub split: Split,
+    /// Folder for the job scripts, the view file, the pieces and the logs (on a file
+    /// system every node sees).
+    #[arg(long)]
+    pub dir: PathBuf,
+    /// The merged image: .png or .exr.
+    #[arg(long, short)]
+    pub out: PathBuf,
+    /// CPUs per piece (Slurm's --cpus-per-task; the piece's worker threads).
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=4096))]
+    pub cpus: u32,
+    /// Memory per piece, as Slurm's --mem (e.g. 4G) [default: the partition's].
+    #[arg(long)]
+    pub mem: Option<String>,
+    /// Slurm partition [default: the cluster's].
+    #[arg(long)]
+    pub partition: Option<String>,
+    /// Time limit of each job, as Slurm's --time (e.g. 2:00:00) [default: the partition's].
+    #[arg(long)]
+    pub time_limit: Option<String>,
+    /// The lucent binary the nodes run [default: this one].
+    #[arg(long)]
+    pub lucent: Option<PathBuf>,
+    /// Shared render options (--spp is the whole render's).
+    #[command(flatten)]
+    pub options: RenderOptions,
 }
 
 /// `lucent merge`.
 #[derive(Args, Debug)]
 pub struct MergeArgs {
-    /// Piece files written by `lucent render --samples A..B --out NAME.part`.
+    /// Piece files written by `lucent render --samples A..B --out NAME.part`, or folders
+    /// of them.
     #[arg(required = true)]
     pub pieces: Vec<PathBuf>,
     /// Output image: .png (tonemapped sRGB) or .exr (linear float).
@@ -254,6 +312,10 @@ pub struct RenderArgs {
     /// Render only sample indices A to B-1 of every pixel (a piece; with --out NAME.part).
     #[arg(long, value_name = "A..B")]
     pub samples: Option<String>,
+    /// Render only pixels X0..X1-1 by Y0..Y1-1 of the frame (a piece with --out NAME.part,
+    /// or a cropped image).
+    #[arg(long, value_name = "X0,Y0,X1,Y1")]
+    pub region: Option<String>,
     /// Shared render options.
     #[command(flatten)]
     pub options: RenderOptions,
@@ -262,7 +324,8 @@ pub struct RenderArgs {
 /// `lucent view`.
 #[derive(Args, Debug, Default)]
 pub struct ViewArgs {
-    /// glTF scene (.gltf or .glb) [default: the built-in Cornell box].
+    /// glTF scene (.gltf or .glb), or a folder of pieces to show merged as they arrive
+    /// [default: the built-in Cornell box].
     pub scene: Option<PathBuf>,
     /// Render in the window until --spp is reached, save this PNG and an EXR beside it, and exit.
     #[arg(long)]

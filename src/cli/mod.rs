@@ -1,10 +1,12 @@
-//! Command line: parsing (`args`), `lucent render` (headless, to PNG/EXR) and `lucent
+//! Command line: parsing (`args`), `lucent render` (headless, to PNG/EXR, or a piece),
+//! `lucent merge` (pieces into the image), `lucent farm` (cluster job scripts) and `lucent
 //! bench` (kernel, robustness and convergence measurements), and what `lucent view`
 //! hands the viewer. `main.rs` dispatches.
 
 pub mod args;
 pub mod bench;
 mod convergence;
+pub mod farm;
 pub mod merge;
 mod plot;
 pub mod render;

@@ -3,7 +3,7 @@
 use super::args::RenderArgs;
 use crate::film::output::{check_can_write, check_writable, write_image};
 use crate::film::piece::{self, FORMAT, Header};
-use crate::integrator::Settings;
+use crate::film::window::Window;
 use crate::open::{OpenOptions, open};
 use crate::render::{Job, RenderSession, Snapshot};
 use crate::scene::Scene;
@@ -42,6 +42,15 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
             return Err("--samples A..B sets the samples: give it without --time and --spp".into());
         }
         (settings.first_sample, settings.target_spp) = (a, Some(b - a));
+        if settings.pixel_sampling != crate::integrator::PixelSampling::Random
+            && !args.options.params.given("strata")
+            && args.options.view.is_none()
+        {
+            eprintln!(
+                "warning: {} pixel sampling in pieces: give every piece the whole render's --strata",
+                settings.pixel_sampling.name()
+            );
+        }
     }
     if piece && args.time.is_some() {
         return Err("a piece (--out NAME.part) needs a sample range or --spp, not --time".into());
@@ -60,7 +69,8 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         Some(i) => scene.file_camera(i).map_err(|e| format!("--{e}"))?,
         None => view.camera.unwrap_or_else(|| scene.default_camera(settings.width as f32 / settings.height as f32)),
     };
-    let session = RenderSession::new(Job { scene: Arc::clone(&scene), camera, settings }, args.options.threads)
+    let window = args.region.as_deref().map(|r| Window::parse(r, settings.width, settings.height)).transpose()?;
+    let session = RenderSession::new(Job { scene: Arc::clone(&scene), camera, settings, window }, args.options.threads)
         .map_err(|e| e.to_string())?;
     eprintln!("{}: simulating {}", scene.name, crate::integrator::simulated_effects(&scene, &settings));
 
@@ -101,14 +111,14 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         let header = Header {
             format: FORMAT,
             scene: super::merge::scene_hash(args.scene.as_deref())?,
-            settings: toml::to_string(&Settings { first_sample: 0, target_spp: None, ..settings })
-                .map_err(|e| e.to_string())?,
+            settings: toml::to_string(&settings.image_defining()).map_err(|e| e.to_string())?,
             camera: format!("{camera:?}"),
             display: view.display,
             first: settings.first_sample,
             count: snap.spp,
-            width: snap.width,
-            height: snap.height,
+            width: settings.width,
+            height: settings.height,
+            window: window.unwrap_or(Window::full(settings.width, settings.height)),
             rejected: snap.rejected,
         };
         piece::write(&args.out, &header, film).map_err(|e| e.to_string())?;

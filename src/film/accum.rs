@@ -3,6 +3,7 @@
 //! bits) and f64 sums of its square, owned by tiles so that workers add samples without
 //! locks; NaN or infinite samples are dropped and counted.
 
+use super::window::Window;
 use crate::spectrum::Spectrum;
 use glam::{DVec3, UVec2, Vec3};
 
@@ -111,29 +112,38 @@ impl Tile {
     }
 }
 
-/// The whole accumulation buffer.
+/// The accumulation buffer of a window of the frame.
 #[derive(Clone, Debug)]
 pub struct Film {
-    /// Width in pixels.
+    /// The frame's pixels this film covers (tile origins are frame coordinates).
+    pub window: Window,
+    /// Width in pixels (the window's).
     pub width: u32,
-    /// Height in pixels.
+    /// Height in pixels (the window's).
     pub height: u32,
     /// Tiles covering the image, row-major.
     pub tiles: Vec<Tile>,
 }
 
 impl Film {
-    /// An empty film split into tiles of `TILE_SIZE`.
+    /// An empty `width` x `height` film split into tiles of `TILE_SIZE`.
     pub fn new(width: u32, height: u32) -> Self {
+        Self::window(Window::full(width, height))
+    }
+
+    /// An empty film of the frame's `window`, split into tiles of `TILE_SIZE`.
+    pub fn window(window: Window) -> Self {
+        let (width, height) = (window.width(), window.height());
         let mut tiles = Vec::new();
         for y0 in (0..height).step_by(TILE_SIZE as usize) {
             for x0 in (0..width).step_by(TILE_SIZE as usize) {
                 let size = UVec2::new(TILE_SIZE.min(width - x0), TILE_SIZE.min(height - y0));
                 let pixels = vec![PixelSums::default(); (size.x * size.y) as usize];
-                tiles.push(Tile { origin: UVec2::new(x0, y0), size, pixels, rejected: 0 });
+                let origin = UVec2::new(window.x0 + x0, window.y0 + y0);
+                tiles.push(Tile { origin, size, pixels, rejected: 0 });
             }
         }
-        Self { width, height, tiles }
+        Self { window, width, height, tiles }
     }
 
     /// Bytes `Film::new(width, height)` allocates at most: pixel sums and tiles (listed with slack).
@@ -143,12 +153,12 @@ impl Film {
         pixels * std::mem::size_of::<PixelSums>() as u64 + 2 * tiles * std::mem::size_of::<Tile>() as u64
     }
 
-    /// Applies `f(x, y, sums)` to every pixel.
+    /// Applies `f(x, y, sums)` to every pixel, in the film's coordinates.
     fn for_each_pixel(&self, mut f: impl FnMut(u32, u32, &PixelSums)) {
         for tile in &self.tiles {
+            let (x0, y0) = (tile.origin.x - self.window.x0, tile.origin.y - self.window.y0);
             for (i, px) in tile.pixels.iter().enumerate() {
-                let (lx, ly) = (i as u32 % tile.size.x, i as u32 / tile.size.x);
-                f(tile.origin.x + lx, tile.origin.y + ly, px);
+                f(x0 + i as u32 % tile.size.x, y0 + i as u32 / tile.size.x, px);
             }
         }
     }
@@ -177,32 +187,6 @@ impl Film {
         let mut out = vec![PixelSums::default(); (self.width * self.height) as usize];
         self.for_each_pixel(|x, y, p| out[(y * self.width + x) as usize] = *p);
         out
-    }
-
-    /// A film holding row-major `pixels` (`width` x `height` of them) and `rejected`
-    /// dropped samples.
-    pub fn from_row_major(width: u32, height: u32, pixels: &[PixelSums], rejected: u64) -> Self {
-        let mut film = Self::new(width, height);
-        for tile in &mut film.tiles {
-            for (i, px) in tile.pixels.iter_mut().enumerate() {
-                let (x, y) = (tile.origin.x + i as u32 % tile.size.x, tile.origin.y + i as u32 / tile.size.x);
-                *px = pixels[(y * width + x) as usize];
-            }
-        }
-        if let Some(t) = film.tiles.first_mut() {
-            t.rejected = rejected;
-        }
-        film
-    }
-
-    /// Adds the sums of `other`, a film of the same size: exact, so pieces merge in any order.
-    pub fn merge(&mut self, other: &Film) {
-        for (tile, theirs) in self.tiles.iter_mut().zip(&other.tiles) {
-            for (px, o) in tile.pixels.iter_mut().zip(&theirs.pixels) {
-                px.merge(o);
-            }
-            tile.rejected += theirs.rejected;
-        }
     }
 }
 

@@ -198,6 +198,19 @@ impl Settings {
         }
     }
 
+    /// What decides the image's pixels: these settings with every parameter that has no
+    /// effect on them (one the viewer hides, such as strata under random pixel sampling)
+    /// at its default, and no sample range. Pieces of one render have the same.
+    pub fn image_defining(&self) -> Settings {
+        let mut s = Settings { first_sample: 0, target_spp: None, ..*self };
+        for p in SETTINGS {
+            if !(p.shown)(self) {
+                (p.set)(&mut s, p.default_value());
+            }
+        }
+        s
+    }
+
     /// The parameter table.
     pub fn table() -> &'static [Param<Settings>] {
         SETTINGS

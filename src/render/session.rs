@@ -2,7 +2,7 @@
 //! (each worker owns whole tiles, so the add path takes no lock), publishes a snapshot
 //! after every pass, and restarts at once when a new job bumps the generation.
 
-use crate::film::{Film, Tile};
+use crate::film::{Film, Tile, window::Window};
 use crate::integrator::{Integrator, Settings, View, sample_pixel, settings::InvalidSettings};
 use crate::memory::{Limits, format_bytes};
 use crate::scene::{Scene, camera::Camera};
@@ -22,9 +22,18 @@ pub struct Job {
     pub camera: Camera,
     /// Integrator and film settings.
     pub settings: Settings,
+    /// The part of the frame to render (`None`: all of it).
+    pub window: Option<Window>,
 }
 
-/// The state of the image at the end of a pass.
+impl Job {
+    /// The pixels rendered: the window, or the whole frame.
+    pub fn window(&self) -> Window {
+        self.window.unwrap_or(Window::full(self.settings.width, self.settings.height))
+    }
+}
+
+/// The state of the image (of the job's window) at the end of a pass.
 #[derive(Clone, Debug)]
 pub struct Snapshot {
     /// Generation of the job this image belongs to.
@@ -108,7 +117,7 @@ pub enum SessionError {
     Settings(#[from] InvalidSettings),
     /// The film and the snapshots the session keeps would exceed the memory limit.
     #[error(
-        "image too large: {width}x{height} needs about {} for the film, over the memory limit of {}",
+        "image too large: {width}x{height} needs about {} for the film, over the memory limit of {}: render it in windows (lucent render --region) and merge them",
         format_bytes(*bytes),
         format_bytes(*limit)
     )]
@@ -306,7 +315,12 @@ fn check_job(job: &Job, limits: &Limits) -> Result<(), SessionError> {
             job.scene.name
         ))));
     }
-    let (width, height) = (job.settings.width, job.settings.height);
+    if let Some(w) = job.window {
+        w.check(job.settings.width, job.settings.height)
+            .map_err(|e| SessionError::Settings(InvalidSettings(format!("window {w}: {e}"))))?;
+    }
+    let window = job.window();
+    let (width, height) = (window.width(), window.height());
     let bytes = film_bytes(width, height);
     if bytes > limits.memory {
         return Err(SessionError::TooLarge { width, height, bytes, limit: limits.memory });
@@ -331,7 +345,7 @@ impl Active {
     fn new(job: Job, generation: u64) -> Self {
         let s = job.settings;
         Self {
-            film: Film::new(s.width, s.height),
+            film: Film::window(job.window()),
             view: View::new(&job.scene, &job.camera, s.width, s.height),
             job,
             generation,

@@ -4,6 +4,7 @@
 pub mod camera_control;
 pub mod convergence;
 mod gpu;
+mod pieces;
 pub mod state;
 mod ui;
 
@@ -48,9 +49,13 @@ pub struct Launch {
     pub screenshot: Option<PathBuf>,
 }
 
-/// Opens the viewer; with a screenshot path, renders to the target spp, saves and exits.
+/// Opens the viewer (on a folder of pieces: their merge as they arrive); with a screenshot
+/// path, renders to the target spp, saves and exits.
 pub fn run(launch: Launch) -> Result<(), String> {
     let Launch { scene: path, view, file_camera, fixed_size, threads, screenshot } = launch;
+    if let Some(dir) = path.as_ref().filter(|p| p.is_dir()) {
+        return pieces::run(dir.clone(), screenshot.zip(view.settings.target_spp));
+    }
     let scene = open(
         path.as_deref(),
         &OpenOptions { environment: view.environment.clone(), ..OpenOptions::default() },

@@ -131,7 +131,7 @@ impl ViewerState {
         let viewport = UVec2::new(settings.width, settings.height);
         let controller = controller_for(&scene, camera, settings.width as f32 / settings.height as f32);
         let sent = JobKey { scene: Arc::clone(&scene), camera: controller.camera(), settings };
-        let job = Job { scene: Arc::clone(&scene), camera: sent.camera, settings };
+        let job = Job { scene: Arc::clone(&scene), camera: sent.camera, settings, window: None };
         let session = RenderSession::new_yielding(job, threads).map_err(|e| e.to_string())?;
         let fly_speed = 0.25 * scene.radius().max(1e-3);
         let environment = scene.environment.as_ref().map_or_else(EnvSettings::default, |e| e.settings.clone());
@@ -211,7 +211,7 @@ impl ViewerState {
         if want == self.sent {
             return false;
         }
-        let job = Job { scene: Arc::clone(&want.scene), camera: want.camera, settings: want.settings };
+        let job = Job { scene: Arc::clone(&want.scene), camera: want.camera, settings: want.settings, window: None };
         match self.session.set_job(job) {
             Ok(_) => {
                 self.settings_error = None;

@@ -159,7 +159,7 @@ fn estimator(ui: &mut Ui, state: &mut ViewerState) {
 /// The widget of one table parameter, shown only where the parameter applies: a checkbox,
 /// a slider for short ranges, a drag value for long ones, a menu for choices; optional
 /// parameters get a checkbox that sets or unsets them.
-fn param_widget<T>(ui: &mut Ui, p: &Param<T>, target: &mut T) {
+pub(super) fn param_widget<T>(ui: &mut Ui, p: &Param<T>, target: &mut T) {
     if !(p.shown)(target) {
         return;
     }
