@@ -286,7 +286,8 @@ fn the_window_on_a_folder_of_pieces_shows_their_merge_as_they_arrive() {
     render("4..8", &dir.join("b.part"));
     let shot = dir.join("shot.png");
     let mut viewer = Command::new(xvfb)
-        .args(["-a", "-s", "-screen 0 1280x800x24", lucent, "view"])
+        // A viewer that never sees its samples would wait forever: `timeout` ends it, failing the test.
+        .args(["-a", "-s", "-screen 0 1280x800x24", "timeout", "120", lucent, "view"])
         .arg(&folder)
         .args(["--spp", "8", "--screenshot"])
         .arg(&shot)
@@ -296,12 +297,6 @@ fn the_window_on_a_folder_of_pieces_shows_their_merge_as_they_arrive() {
         .stdout(std::process::Stdio::piped())
         .spawn()
         .unwrap();
-    let pid = viewer.id().to_string();
-    std::thread::spawn(move || {
-        // A viewer that never sees its samples would wait forever: end it, failing the test.
-        std::thread::sleep(Duration::from_secs(120));
-        let _ = Command::new("kill").arg(&pid).status();
-    });
     let stderr = std::io::BufReader::new(viewer.stderr.take().unwrap());
     let mut log = Vec::new();
     for line in std::io::BufRead::lines(stderr) {

@@ -182,11 +182,14 @@ impl Film {
         self.tiles.iter().map(|t| t.rejected).sum()
     }
 
-    /// Every pixel's sums, row-major.
-    pub fn row_major(&self) -> Vec<PixelSums> {
-        let mut out = vec![PixelSums::default(); (self.width * self.height) as usize];
-        self.for_each_pixel(|x, y, p| out[(y * self.width + x) as usize] = *p);
-        out
+    /// Every pixel's sums in row-major order, as runs of one tile's row.
+    pub fn row_segments(&self) -> impl Iterator<Item = &[PixelSums]> {
+        let across = self.width.div_ceil(TILE_SIZE) as usize;
+        self.tiles.chunks(across.max(1)).flat_map(|band| {
+            (0..band[0].size.y as usize).flat_map(move |ly| {
+                band.iter().map(move |t| &t.pixels[ly * t.size.x as usize..(ly + 1) * t.size.x as usize])
+            })
+        })
     }
 }
 
@@ -200,6 +203,16 @@ mod tests {
         let covered: u32 = film.tiles.iter().map(|t| t.size.x * t.size.y).sum();
         assert_eq!(covered, 37 * 20);
         assert_eq!(film.mean_image().len(), 37 * 20);
+        let mut film = Film::window(Window { x0: 3, y0: 5, x1: 40, y1: 25 });
+        for tile in &mut film.tiles {
+            for (i, px) in tile.pixels.iter_mut().enumerate() {
+                let (x, y) = (tile.origin.x + i as u32 % tile.size.x, tile.origin.y + i as u32 / tile.size.x);
+                px.count = (y * 1000 + x) as u64;
+            }
+        }
+        let order: Vec<u64> = film.row_segments().flatten().map(|p| p.count).collect();
+        let expected: Vec<u64> = (5..25).flat_map(|y| (3..40).map(move |x| (y * 1000 + x) as u64)).collect();
+        assert_eq!(order, expected, "frame coordinates, row-major");
     }
 
     #[test]

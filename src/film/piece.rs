@@ -50,7 +50,7 @@ pub fn write(path: &Path, header: &Header, film: &Film) -> Result<(), super::out
         let mut out = std::io::BufWriter::new(std::fs::File::create(tmp)?);
         let line = serde_json::to_string(header).map_err(std::io::Error::other)?;
         writeln!(out, "{line}")?;
-        for p in film.row_major() {
+        for p in film.row_segments().flatten() {
             for s in p.sum {
                 out.write_all(&s.to_le_bytes())?;
             }
