@@ -64,6 +64,13 @@ fn pieces_by_sample_range_merge_to_the_single_process_image_bit_for_bit() {
     let bytes = std::fs::read(d.join("a.part")).unwrap();
     std::fs::write(d.join("short.part"), &bytes[..bytes.len() - 7]).unwrap();
     refused(&["merge", &p("short.part"), "--out", &bad], "bytes do not hold");
+    // A header claiming a 100000x100000 frame around a one-pixel window.
+    let text = String::from_utf8_lossy(&bytes);
+    let header =
+        text.lines().next().unwrap().replace("\"width\":24,\"height\":18", "\"width\":100000,\"height\":100000");
+    let header = header.replace("\"x1\":24,\"y1\":18", "\"x1\":1,\"y1\":1");
+    std::fs::write(d.join("huge.part"), [format!("{header}\n").as_bytes(), &[0u8; 80]].concat()).unwrap();
+    refused(&["merge", &p("huge.part"), "--out", &bad], "merging a 100000x100000 frame needs about 240.0 GB");
     std::fs::write(d.join("junk.part"), b"not a piece\n").unwrap();
     refused(&["merge", &p("junk.part"), "--out", &bad], "bad header");
     refused(&["render", "--samples", "5..5", "--out", &p("x.part")], "A < B");
@@ -119,5 +126,37 @@ fn pieces_by_window_and_sample_range_merge_to_the_single_process_image_bit_for_b
     refused(&[&["render", "--region", "0,0,25,18"], &size[..], &[&p("x.part")]].concat(), "outside the 24x18 frame");
     refused(&[&["render", "--region", "4,4,4,8"], &size[..], &[&p("x.part")]].concat(), "empty");
     assert!(!Path::new(&bad).exists(), "a refused merge writes nothing");
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+#[test]
+fn farm_job_scripts_name_every_piece_once_and_bad_requests_are_refused() {
+    let d = dir().join("farm");
+    let (folder, out) = (d.to_str().unwrap().to_owned(), d.join("frame.exr").to_str().unwrap().to_owned());
+    let farm = |extra: &[&str]| -> Vec<String> {
+        let base = ["farm", "slurm", "--dir", &folder, "--out", &out, "--width", "24", "--height", "18", "--spp", "10"];
+        base.iter().chain(extra).map(|s| s.to_string()).collect()
+    };
+    fn args(v: &[String]) -> Vec<&str> {
+        v.iter().map(String::as_str).collect()
+    }
+    let (ok, err) = lucent(&args(&farm(&["--pieces", "3", "--split", "regions", "--cpus", "2"])));
+    assert!(ok, "{err}");
+    let script = std::fs::read_to_string(d.join("render.sbatch")).unwrap();
+    for line in [
+        "#SBATCH --array=0-2",
+        "#SBATCH --cpus-per-task=2",
+        "#SBATCH --requeue",
+        "regions=(0,0,24,6 0,6,24,12 0,12,24,18)",
+        "samples=(0..10 0..10 0..10)",
+    ] {
+        assert!(script.contains(line), "{line} in {script}");
+    }
+    assert!(std::fs::read_to_string(d.join("submit.sh")).unwrap().contains("--dependency=afterok:"));
+    assert!(d.join("view.toml").exists());
+    refused(&args(&farm(&["--pieces", "11"])), "--pieces 11: between 1 and the render's 10 samples per pixel");
+    refused(&args(&farm(&["--pieces", "19", "--split", "regions"])), "between 1 and the render's 18 rows");
+    std::fs::write(d.join("pieces/old.part"), b"a piece of an earlier render").unwrap();
+    refused(&args(&farm(&["--pieces", "2"])), "already holds pieces: give another --dir");
     let _ = std::fs::remove_dir_all(&d);
 }

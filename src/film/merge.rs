@@ -9,6 +9,7 @@ use super::accum::PixelSums;
 use super::piece::{Header, Piece};
 use super::tonemap::Display;
 use super::window::Window;
+use crate::memory::{Limits, format_bytes};
 use glam::Vec3;
 use std::path::{Path, PathBuf};
 
@@ -85,6 +86,10 @@ pub fn open_all(paths: &[PathBuf]) -> Result<Vec<Piece>, String> {
     Ok(pieces)
 }
 
+/// Most (cell, piece) pairs a merge examines (about a second's work): a grid of 100x100
+/// windows takes 1e8, one of 1000x1000 would take 1e12 and is refused.
+const MAX_CELL_CHECKS: usize = 1 << 30;
+
 /// A rectangle of the frame that the same pieces cover, and those pieces by first sample.
 struct Cell {
     window: Window,
@@ -103,7 +108,14 @@ fn cells(pieces: &[Piece], width: u32, height: u32) -> Result<Vec<Cell>, String>
         e
     };
     let (xs, ys) = (edges(|w| [w.x0, w.x1], width), edges(|w| [w.y0, w.y1], height));
-    let mut cells = Vec::new();
+    let count = (xs.len() - 1) * (ys.len() - 1);
+    if count.saturating_mul(pieces.len()) > MAX_CELL_CHECKS {
+        return Err(format!(
+            "{} pieces cut the frame into {count} cells, too many to check: use bands or a grid of windows",
+            pieces.len()
+        ));
+    }
+    let mut cells = Vec::with_capacity(count);
     for y in ys.windows(2) {
         for x in xs.windows(2) {
             let window = Window { x0: x[0], y0: y[0], x1: x[1], y1: y[1] };
@@ -162,11 +174,22 @@ pub fn merge(paths: &[PathBuf], complete: bool, spp: Option<u32>) -> Result<Merg
     };
     let (width, height) = (first.header.width, first.header.height);
     let cells = cells(&pieces, width, height)?;
+    // The mean image and its encoded copy, and the largest cell's sums.
+    let largest = cells.iter().filter(|c| !c.pieces.is_empty()).map(|c| c.window.area()).max().unwrap_or(0);
+    let bytes = width as u64 * height as u64 * 24 + largest * std::mem::size_of::<PixelSums>() as u64;
+    let limit = Limits::from_machine().memory;
+    if bytes > limit {
+        return Err(format!(
+            "merging a {width}x{height} frame needs about {}, over the memory limit of {}",
+            format_bytes(bytes),
+            format_bytes(limit)
+        ));
+    }
     if complete {
         check_complete(&pieces, &cells, spp)?;
     }
     let mut mean = vec![Vec3::ZERO; width as usize * height as usize];
-    for cell in &cells {
+    for cell in cells.iter().filter(|c| !c.pieces.is_empty()) {
         let mut sums = vec![PixelSums::default(); cell.window.area() as usize];
         for &i in &cell.pieces {
             pieces[i].add_to(&cell.window, &mut sums)?;
