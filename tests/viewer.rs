@@ -209,17 +209,18 @@ fn xvfb_run() -> Option<PathBuf> {
     std::env::var_os("PATH")?.to_str()?.split(':').map(|d| Path::new(d).join("xvfb-run")).find(|p| p.exists())
 }
 
-#[test]
-fn the_real_window_saves_the_same_image_as_the_headless_renderer() {
+/// For a test in a real window: xvfb-run, a temporary folder and a private runtime folder
+/// in it; None (the test is skipped, saying so) without xvfb-run, unless LUCENT_REQUIRE_XVFB.
+fn under_xvfb(name: &str) -> Option<(PathBuf, PathBuf, PathBuf)> {
     let Some(xvfb) = xvfb_run() else {
         assert!(
             std::env::var_os("LUCENT_REQUIRE_XVFB").is_none(),
             "LUCENT_REQUIRE_XVFB is set but xvfb-run is missing: the viewer test must run"
         );
-        eprintln!("skipping the end-to-end viewer test: xvfb-run is not installed");
-        return;
+        eprintln!("skipping the {name} viewer test: xvfb-run is not installed");
+        return None;
     };
-    let dir = temp_dir("e2e");
+    let dir = temp_dir(name);
     let runtime = dir.join("xdg");
     std::fs::create_dir_all(&runtime).unwrap();
     #[cfg(unix)]
@@ -227,6 +228,12 @@ fn the_real_window_saves_the_same_image_as_the_headless_renderer() {
         use std::os::unix::fs::PermissionsExt;
         std::fs::set_permissions(&runtime, std::fs::Permissions::from_mode(0o700)).unwrap();
     }
+    Some((xvfb, dir, runtime))
+}
+
+#[test]
+fn the_real_window_saves_the_same_image_as_the_headless_renderer() {
+    let Some((xvfb, dir, runtime)) = under_xvfb("e2e") else { return };
     let shot = dir.join("shot.png");
     let args = ["--spp", "8", "--width", "64", "--height", "48", "--seed", "3"];
     let out = Command::new(xvfb)
@@ -260,23 +267,9 @@ fn the_real_window_saves_the_same_image_as_the_headless_renderer() {
 
 #[test]
 fn the_window_on_a_folder_of_pieces_shows_their_merge_as_they_arrive() {
-    let Some(xvfb) = xvfb_run() else {
-        assert!(
-            std::env::var_os("LUCENT_REQUIRE_XVFB").is_none(),
-            "LUCENT_REQUIRE_XVFB is set but xvfb-run is missing: the viewer test must run"
-        );
-        eprintln!("skipping the pieces viewer test: xvfb-run is not installed");
-        return;
-    };
-    let dir = temp_dir("pieces");
-    let (folder, runtime) = (dir.join("pieces"), dir.join("xdg"));
+    let Some((xvfb, dir, runtime)) = under_xvfb("pieces") else { return };
+    let folder = dir.join("pieces");
     std::fs::create_dir_all(&folder).unwrap();
-    std::fs::create_dir_all(&runtime).unwrap();
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::PermissionsExt;
-        std::fs::set_permissions(&runtime, std::fs::Permissions::from_mode(0o700)).unwrap();
-    }
     let lucent = env!("CARGO_BIN_EXE_lucent");
     let render = |samples: &str, out: &Path| {
         let args = ["render", "--width", "64", "--height", "48", "--samples", samples, "--out"];

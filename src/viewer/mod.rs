@@ -78,12 +78,36 @@ pub fn run(launch: Launch) -> Result<(), String> {
     app.result
 }
 
+/// A window, its GPU surface and egui's state.
+type WindowParts = (Arc<Window>, Gpu, egui_winit::State);
+
+/// Opens a 1280x800 window titled `title` with a surface on any adapter that presents to it.
+fn open_window(event_loop: &ActiveEventLoop, egui: &egui::Context, title: &str) -> Result<WindowParts, String> {
+    let attributes =
+        Window::default_attributes().with_title(title).with_inner_size(winit::dpi::LogicalSize::new(1280.0, 800.0));
+    let window = Arc::new(event_loop.create_window(attributes).map_err(|e| format!("cannot open a window: {e}"))?);
+    let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_with_display_handle_from_env(Box::new(
+        event_loop.owned_display_handle(),
+    )));
+    let gpu = Gpu::new(&instance, Arc::clone(&window))?;
+    eprintln!("viewer: presenting with {}", gpu.adapter);
+    let egui_state = egui_winit::State::new(
+        egui.clone(),
+        egui::ViewportId::ROOT,
+        &window,
+        Some(window.scale_factor() as f32),
+        window.theme(),
+        Some(gpu.max_texture_side()),
+    );
+    Ok((window, gpu, egui_state))
+}
+
 /// The window, its GPU resources, egui, and the viewer state.
 struct App {
     state: ViewerState,
     ui: UiState,
     egui: egui::Context,
-    window: Option<(Arc<Window>, Gpu, egui_winit::State)>,
+    window: Option<WindowParts>,
     screenshot: Option<PathBuf>,
     /// When egui asked to be drawn again.
     repaint_at: Option<Instant>,
@@ -226,29 +250,10 @@ impl ApplicationHandler for App {
         if self.window.is_some() {
             return;
         }
-        let attributes = Window::default_attributes()
-            .with_title("Lucent")
-            .with_inner_size(winit::dpi::LogicalSize::new(1280.0, 800.0));
-        let window = match event_loop.create_window(attributes) {
-            Ok(w) => Arc::new(w),
-            Err(e) => return self.fail(event_loop, format!("cannot open a window: {e}")),
-        };
-        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_with_display_handle_from_env(Box::new(
-            event_loop.owned_display_handle(),
-        )));
-        let gpu = match Gpu::new(&instance, Arc::clone(&window)) {
-            Ok(g) => g,
+        let (window, gpu, egui_state) = match open_window(event_loop, &self.egui, "Lucent") {
+            Ok(w) => w,
             Err(e) => return self.fail(event_loop, e),
         };
-        eprintln!("viewer: presenting with {}", gpu.adapter);
-        let egui_state = egui_winit::State::new(
-            self.egui.clone(),
-            egui::ViewportId::ROOT,
-            &window,
-            Some(window.scale_factor() as f32),
-            window.theme(),
-            Some(gpu.max_texture_side()),
-        );
         self.window = Some((window, gpu, egui_state));
         self.redraw_wanted = true;
     }

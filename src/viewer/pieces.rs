@@ -3,7 +3,6 @@
 //! every pixel the mean of the samples it has so far), and the window shows that image
 //! with the samples per pixel so far, until the last piece lands.
 
-use super::gpu::Gpu;
 use crate::film::merge::{Merged, merge, pieces_in};
 use crate::film::output::write_image;
 use crate::film::tonemap::{DISPLAY, Display};
@@ -15,7 +14,7 @@ use std::time::{Duration, Instant, SystemTime};
 use winit::application::ApplicationHandler;
 use winit::event::WindowEvent;
 use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop};
-use winit::window::{Window, WindowId};
+use winit::window::WindowId;
 
 /// How often the folder is listed.
 const WATCH: Duration = Duration::from_millis(300);
@@ -116,7 +115,7 @@ struct App {
     watcher: Watcher,
     screenshot: Option<(PathBuf, u32)>,
     egui: egui::Context,
-    window: Option<(Arc<Window>, Gpu, egui_winit::State)>,
+    window: Option<super::WindowParts>,
     /// The merge on screen.
     shown: Option<Arc<Result<Merged, String>>>,
     /// The display transform (the pieces' own until the user changes it).
@@ -247,36 +246,14 @@ impl ApplicationHandler for App {
         if self.window.is_some() {
             return;
         }
-        let attributes = Window::default_attributes()
-            .with_title(format!("Lucent: pieces in {}", self.dir.display()))
-            .with_inner_size(winit::dpi::LogicalSize::new(1280.0, 800.0));
-        let window = match event_loop.create_window(attributes) {
-            Ok(w) => Arc::new(w),
-            Err(e) => {
-                self.result = Err(format!("cannot open a window: {e}"));
-                return event_loop.exit();
-            }
-        };
-        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_with_display_handle_from_env(Box::new(
-            event_loop.owned_display_handle(),
-        )));
-        let gpu = match Gpu::new(&instance, Arc::clone(&window)) {
-            Ok(g) => g,
+        let title = format!("Lucent: pieces in {}", self.dir.display());
+        match super::open_window(event_loop, &self.egui, &title) {
+            Ok(w) => self.window = Some(w),
             Err(e) => {
                 self.result = Err(e);
-                return event_loop.exit();
+                event_loop.exit();
             }
-        };
-        eprintln!("viewer: presenting with {}", gpu.adapter);
-        let egui_state = egui_winit::State::new(
-            self.egui.clone(),
-            egui::ViewportId::ROOT,
-            &window,
-            Some(window.scale_factor() as f32),
-            window.theme(),
-            Some(gpu.max_texture_side()),
-        );
-        self.window = Some((window, gpu, egui_state));
+        }
     }
 
     fn window_event(&mut self, event_loop: &ActiveEventLoop, _id: WindowId, event: WindowEvent) {
