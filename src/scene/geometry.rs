@@ -66,6 +66,8 @@ pub struct Geometry {
     /// Length of the direction handed to obvhs, so that its ray parameter is in units of
     /// 1e-5 of the scene's size (see `to_bvh_ray`).
     t_unit: f32,
+    /// 1 / `t_unit`.
+    inv_t_unit: f32,
 }
 
 impl Geometry {
@@ -99,7 +101,7 @@ impl Geometry {
         let positions = order.iter().map(|&i| positions[i as usize]).collect();
         let attrs = order.iter().map(|&i| attrs[i as usize]).collect();
         let extra = if extra.is_empty() { extra } else { order.iter().map(|&i| extra[i as usize]).collect() };
-        Self { bvh, positions, attrs, extra, t_unit }
+        Self { bvh, positions, attrs, extra, t_unit, inv_t_unit: 1.0 / t_unit }
     }
 
     /// Number of triangles (in BVH order, so including any duplicated references).
@@ -148,8 +150,9 @@ impl Geometry {
         self.occluded_filtered(ray, watertight, |_, _| true)
     }
 
-    /// A candidate hit on triangle `id` at obvhs's parameter, or infinity if there is none
-    /// or `accept` (triangle, barycentrics) turns it down.
+    /// A hit on triangle `id` that `accept` (triangle, barycentrics) takes: obvhs's ray
+    /// parameter, the ray's own and the barycentrics.
+    #[inline]
     fn candidate(
         &self,
         ray: &Ray,
@@ -158,18 +161,19 @@ impl Geometry {
         id: usize,
         watertight: bool,
         accept: &impl Fn(u32, [f32; 3]) -> bool,
-    ) -> f32 {
-        let (k, inv_k) = (self.t_unit, 1.0 / self.t_unit);
-        let found = if watertight {
-            wt.intersect(&self.positions[id], r.tmax * k).map(|(t, b)| (t * inv_k, b))
+    ) -> Option<(f32, f32, [f32; 3])> {
+        let k = self.t_unit;
+        let (t_bvh, t, b) = if watertight {
+            let (t, b) = wt.intersect(&self.positions[id], r.tmax * k)?;
+            (t * self.inv_t_unit, t, b)
         } else {
             let t = self.moller(id, r);
-            (t < f32::INFINITY).then(|| (t, barycentrics(ray.o + t * k * ray.d, &self.positions[id])))
+            if t == f32::INFINITY {
+                return None;
+            }
+            (t, t * k, barycentrics(ray.o + t * k * ray.d, &self.positions[id]))
         };
-        match found {
-            Some((t, b)) if accept(id as u32, b) => t,
-            _ => f32::INFINITY,
-        }
+        accept(id as u32, b).then_some((t_bvh, t, b))
     }
 
     /// `intersect_with`, ignoring the hits `accept` (triangle, barycentrics) turns down.
@@ -182,22 +186,24 @@ impl Geometry {
         if self.is_empty() {
             return None;
         }
-        let k = self.t_unit;
         let mut hit = RayHit::none();
         let wt = Watertight::new(ray);
-        let found = self
-            .bvh
-            .ray_traverse(to_bvh_ray(ray, k), &mut hit, |r, id| self.candidate(ray, &wt, r, id, watertight, &accept));
-        if !found {
-            return None;
-        }
-        let p = &self.positions[hit.primitive_id as usize];
-        if watertight {
-            let (t, b) = wt.intersect(p, f32::INFINITY)?;
-            return Some(Hit { tri: hit.primitive_id, t, b });
-        }
-        let t = hit.t * k;
-        Some(Hit { tri: hit.primitive_id, t, b: barycentrics(ray.o + t * ray.d, p) })
+        // The closest hit's distance and barycentrics, kept as obvhs takes it (a parameter
+        // below the ray's current end), instead of testing its triangle again afterwards.
+        let mut closest = None;
+        let found = self.bvh.ray_traverse(to_bvh_ray(ray, self.t_unit), &mut hit, |r, id| {
+            match self.candidate(ray, &wt, r, id, watertight, &accept) {
+                Some((t_bvh, t, b)) => {
+                    if t_bvh < r.tmax {
+                        closest = Some((t, b));
+                    }
+                    t_bvh
+                }
+                None => f32::INFINITY,
+            }
+        });
+        let (t, b) = closest.filter(|_| found)?;
+        Some(Hit { tri: hit.primitive_id, t, b })
     }
 
     /// `occluded_with`, ignoring the hits `accept` turns down.
@@ -207,7 +213,7 @@ impl Geometry {
         }
         let wt = Watertight::new(ray);
         !self.bvh.ray_traverse_miss(to_bvh_ray(ray, self.t_unit), |r, id| {
-            self.candidate(ray, &wt, r, id, watertight, &accept)
+            self.candidate(ray, &wt, r, id, watertight, &accept).map_or(f32::INFINITY, |c| c.0)
         })
     }
 
@@ -276,8 +282,12 @@ impl Watertight {
     #[inline]
     fn intersect(&self, p: &[Vec3; 3], tmax: f32) -> Option<(f32, [f32; 3])> {
         let [kx, ky, kz] = self.k;
+        // Plain arrays, whose indices the assertion bounds: indexing a glam vector by a
+        // runtime axis is a chain of compares and branches, and took 42% of this test's
+        // instructions (callgrind, Cornell box).
+        assert!(kx < 3 && ky < 3 && kz < 3);
         let s = self.shear;
-        let (a, b, c) = (p[0] - self.o, p[1] - self.o, p[2] - self.o);
+        let (a, b, c) = ((p[0] - self.o).to_array(), (p[1] - self.o).to_array(), (p[2] - self.o).to_array());
         let (ax, ay) = (a[kx] - s.x * a[kz], a[ky] - s.y * a[kz]);
         let (bx, by) = (b[kx] - s.x * b[kz], b[ky] - s.y * b[kz]);
         let (cx, cy) = (c[kx] - s.x * c[kz], c[ky] - s.y * c[kz]);
