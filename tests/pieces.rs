@@ -156,6 +156,7 @@ fn farm_job_scripts_name_every_piece_once_and_bad_requests_are_refused() {
     assert!(d.join("view.toml").exists());
     refused(&args(&farm(&["--pieces", "11"])), "--pieces 11: between 1 and the render's 10 samples per pixel");
     refused(&args(&farm(&["--pieces", "19", "--split", "regions"])), "between 1 and the render's 18 rows");
+    refused(&args(&farm(&["--pieces", "2", "--mem", "4G\n#SBATCH --x"])), "#SBATCH lines take no spaces");
     std::fs::write(d.join("pieces/old.part"), b"a piece of an earlier render").unwrap();
     refused(&args(&farm(&["--pieces", "2"])), "already holds pieces: give another --dir");
     let _ = std::fs::remove_dir_all(&d);

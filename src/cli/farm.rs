@@ -57,8 +57,23 @@ fn absolute(path: &Path) -> Result<String, String> {
     p.to_str().map(quote).ok_or_else(|| format!("{}: not a UTF-8 path", p.display()))
 }
 
+/// Checks a value written into an `#SBATCH` line, which Slurm reads without quoting.
+fn sbatch_word(option: &str, value: &str) -> Result<(), String> {
+    if value.is_empty() || value.chars().any(|c| c.is_whitespace() || c.is_control() || c == '\'' || c == '"') {
+        return Err(format!("{option} {value:?}: #SBATCH lines take no spaces, quotes or control characters"));
+    }
+    Ok(())
+}
+
 /// Runs `lucent farm slurm`.
 pub fn run(args: &FarmSlurmArgs) -> Result<(), String> {
+    sbatch_word("--dir", &args.dir.to_string_lossy())?;
+    for (option, value) in [("--mem", &args.mem), ("--partition", &args.partition), ("--time-limit", &args.time_limit)]
+    {
+        if let Some(v) = value {
+            sbatch_word(option, v)?;
+        }
+    }
     let mut view = args.options.resolve(Some(64))?;
     let s = view.settings;
     let spp = s.target_spp.expect("a default target is given");
