@@ -11,8 +11,9 @@ fn lucent(args: &[&str]) -> (bool, String) {
     (out.status.success(), String::from_utf8_lossy(&out.stderr).into_owned())
 }
 
-fn dir() -> PathBuf {
-    let d = std::env::temp_dir().join(format!("lucent-pieces-{}", std::process::id()));
+/// A folder of this test's own (tests run in parallel, and each removes its folder).
+fn dir(test: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("lucent-pieces-{}-{test}", std::process::id()));
     std::fs::create_dir_all(&d).unwrap();
     d
 }
@@ -33,7 +34,7 @@ fn refused(args: &[&str], needle: &str) {
 
 #[test]
 fn pieces_by_sample_range_merge_to_the_single_process_image_bit_for_bit() {
-    let d = dir();
+    let d = dir("ranges");
     let p = |name: &str| d.join(name).to_str().unwrap().to_owned();
     render(&d.join("whole.exr"), &["--spp", "13"]);
     for (range, name) in [("0..4", "a.part"), ("4..9", "b.part"), ("9..13", "c.part")] {
@@ -85,7 +86,7 @@ fn exr(path: &Path) -> image::Rgb32FImage {
 
 #[test]
 fn pieces_by_window_and_sample_range_merge_to_the_single_process_image_bit_for_bit() {
-    let d = dir().join("windows");
+    let d = dir("windows");
     std::fs::create_dir_all(d.join("pieces")).unwrap();
     let p = |name: &str| d.join(name).to_str().unwrap().to_owned();
     render(&d.join("whole.exr"), &["--spp", "6"]);
@@ -131,7 +132,7 @@ fn pieces_by_window_and_sample_range_merge_to_the_single_process_image_bit_for_b
 
 #[test]
 fn farm_job_scripts_name_every_piece_once_and_bad_requests_are_refused() {
-    let d = dir().join("farm");
+    let d = dir("farm");
     let (folder, out) = (d.to_str().unwrap().to_owned(), d.join("frame.exr").to_str().unwrap().to_owned());
     let farm = |extra: &[&str]| -> Vec<String> {
         let base = ["farm", "slurm", "--dir", &folder, "--out", &out, "--width", "24", "--height", "18", "--spp", "10"];
