@@ -4,9 +4,9 @@
 //!
 //! With F = f0 + (1 - f0) (1 - v.h)^5, the albedo E(mu, alpha, f0) is linear in f0:
 //! E = f0 (A - B) + B, with A the albedo for F = 1 and B the albedo for F = (1 - v.h)^5.
-//! Both are integrated by stratified VNDF sampling, where f cos / pdf = F G2 / G1. Each
-//! roughness row is computed the first time a lookup needs it (about 20 ms), so a scene
-//! pays for the roughnesses it uses.
+//! Both are integrated by stratified VNDF sampling, where f cos / pdf = F G2 / G1, offline
+//! (`albedo_table.rs`): computing them at run time took 0.2 s of a glossy scene's start,
+//! 735 M instructions, which every piece of a farm render paid again.
 
 use super::microfacet::{Ggx, reflect};
 use glam::{Vec2, Vec3};
@@ -15,9 +15,9 @@ use std::sync::OnceLock;
 /// Table resolution along sqrt(cos theta_o). The square root puts nodes close together at
 /// grazing angles, where Fresnel and masking change fast and linear interpolation between
 /// sparse nodes would underestimate the layer's albedo.
-const N: usize = 64;
+pub const N: usize = 64;
 /// Table resolution along roughness (sqrt alpha).
-const NR: usize = 64;
+pub const NR: usize = 64;
 /// Strata per axis of the quadrature at each node. Reflections below the horizon are cut
 /// out of the integrand, and that edge makes the midpoint rule converge only as 1 / STRATA:
 /// 16 strata left errors of 1% at roughness 0.5, 64 leave 0.2%.
@@ -58,33 +58,40 @@ fn average(row: &[f32; N]) -> f32 {
     s as f32
 }
 
-/// Row `j`, computed by stratified VNDF sampling on first use.
+/// The A and B albedos along mu at roughness node `j`, by stratified VNDF sampling (about
+/// 20 ms): how `albedo_table.rs` was computed (`cargo run --release --example albedo_table`).
+pub fn compute_row(j: usize) -> ([f32; N], [f32; N]) {
+    let r = roughness_at(j);
+    let ggx = Ggx { alpha: (r * r).max(super::SMOOTH_ALPHA) };
+    let (mut a_row, mut b_row) = ([0.0; N], [0.0; N]);
+    for i in 0..N {
+        let mu = mu_at(i);
+        let wo = Vec3::new((1.0 - mu * mu).sqrt(), 0.0, mu);
+        let (mut a, mut b) = (0.0f64, 0.0f64);
+        for k in 0..STRATA * STRATA {
+            let u = Vec2::new((k % STRATA) as f32 + 0.5, (k / STRATA) as f32 + 0.5) / STRATA as f32;
+            let h = ggx.sample_visible_normal(wo, u);
+            let wi = reflect(wo, h);
+            if wi.z <= 0.0 {
+                continue;
+            }
+            let w = (ggx.g2(wo, wi) / ggx.g1(wo)) as f64;
+            a += w;
+            b += w * (1.0 - wo.dot(h).clamp(0.0, 1.0) as f64).powi(5);
+        }
+        let n = (STRATA * STRATA) as f64;
+        a_row[i] = (a / n) as f32;
+        b_row[i] = (b / n) as f32;
+    }
+    (a_row, b_row)
+}
+
+/// Row `j` of the tables computed offline, with its averages (taken on first use).
 fn row(j: usize) -> &'static Row {
     static ROWS: [OnceLock<Row>; NR] = [const { OnceLock::new() }; NR];
     ROWS[j].get_or_init(|| {
-        let r = roughness_at(j);
-        let ggx = Ggx { alpha: (r * r).max(super::SMOOTH_ALPHA) };
-        let (mut a_row, mut b_row) = ([0.0; N], [0.0; N]);
-        for i in 0..N {
-            let mu = mu_at(i);
-            let wo = Vec3::new((1.0 - mu * mu).sqrt(), 0.0, mu);
-            let (mut a, mut b) = (0.0f64, 0.0f64);
-            for k in 0..STRATA * STRATA {
-                let u = Vec2::new((k % STRATA) as f32 + 0.5, (k / STRATA) as f32 + 0.5) / STRATA as f32;
-                let h = ggx.sample_visible_normal(wo, u);
-                let wi = reflect(wo, h);
-                if wi.z <= 0.0 {
-                    continue;
-                }
-                let w = (ggx.g2(wo, wi) / ggx.g1(wo)) as f64;
-                a += w;
-                b += w * (1.0 - wo.dot(h).clamp(0.0, 1.0) as f64).powi(5);
-            }
-            let n = (STRATA * STRATA) as f64;
-            a_row[i] = (a / n) as f32;
-            b_row[i] = (b / n) as f32;
-        }
-        Row { a_avg: average(&a_row), b_avg: average(&b_row), a: a_row, b: b_row }
+        let (a, b) = (super::albedo_table::A[j], super::albedo_table::B[j]);
+        Row { a_avg: average(&a), b_avg: average(&b), a, b }
     })
 }
 
@@ -93,13 +100,6 @@ fn cell(x: f32, n: usize) -> (usize, f32) {
     let s = x.clamp(0.0, 1.0) * (n - 1) as f32;
     let i = (s as usize).min(n - 2);
     (i, s - i as f32)
-}
-
-/// Computes the rows that lookups at `roughness` read, so that rendering does not wait.
-pub fn prepare(roughness: f32) {
-    let (j, _) = cell(roughness, NR);
-    row(j);
-    row(j + 1);
 }
 
 /// Albedo of the GGX lobe with Fresnel reflectance f0 (scalar) at cos theta_o = `mu`, for
@@ -146,6 +146,13 @@ mod tests {
             }
         }
         sum as f32
+    }
+
+    #[test]
+    fn the_tables_are_the_integration_they_were_made_by() {
+        for j in 0..NR {
+            assert_eq!(compute_row(j), (super::super::albedo_table::A[j], super::super::albedo_table::B[j]), "row {j}");
+        }
     }
 
     #[test]

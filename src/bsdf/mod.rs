@@ -12,6 +12,7 @@
 //! Degenerate samples (zero pdf, zero or non-finite weight) are rejected in one place.
 
 pub mod albedo;
+mod albedo_table;
 mod dielectric;
 mod diffuse;
 pub mod measured;

@@ -344,14 +344,6 @@ impl Scene {
             see_through: used.iter().any(|m| m.is_transmissive()),
             dispersion: used.iter().any(|m| m.is_dispersive()),
         };
-        if self.features.glossy {
-            // Tabulate the GGX albedos the materials' roughnesses read here (on the loading
-            // thread), not in the first samples; textured roughness fills in the rest lazily.
-            for m in used.iter().filter(|m| m.is_glossy()) {
-                crate::bsdf::albedo::prepare(m.roughness);
-                crate::bsdf::albedo::prepare(m.clearcoat_roughness);
-            }
-        }
     }
 
     /// The file's first camera, or one that frames the scene's bounds.
