@@ -19,6 +19,7 @@ pub mod measured;
 mod metal_rough;
 pub mod microfacet;
 pub mod sheen;
+mod sheen_table;
 
 pub use diffuse::Lambert;
 pub use metal_rough::MetalRough;
