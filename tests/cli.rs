@@ -227,3 +227,37 @@ fn the_readme_and_help_document_every_setting_of_the_tables() {
         assert!(help.contains(&format!("--{name}")) && help.contains(doc), "--help lacks --{name}: {doc}");
     }
 }
+
+#[test]
+fn bench_throughput_reports_every_scene_of_its_suite_against_a_baseline() {
+    let exe = env!("CARGO_BIN_EXE_lucent");
+    let o = lucent(&["bench", "throughput", "--spp", "1", "--size", "32", "--runs", "1", "--baseline", exe]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    let rows: Vec<Vec<&str>> = stdout
+        .lines()
+        .filter(|l| l.starts_with("| ") && !l.starts_with("| scene"))
+        .map(|l| l.trim_matches('|').split('|').map(str::trim).collect())
+        .collect();
+    let names: Vec<&str> = rows.iter().map(|r| r[0]).collect();
+    assert_eq!(
+        names,
+        [
+            "cornell-box",
+            "cornell-box-glass",
+            "MetalRoughSpheresNoTextures",
+            "ToyCar (camera 1, sky)",
+            "WaterBottle (sky)"
+        ]
+    );
+    for row in &rows {
+        let figures: Vec<f64> = row[1..].iter().map(|f| f.parse().expect("a number")).collect();
+        assert_eq!(figures.len(), 8, "{row:?}");
+        let (samples, rays, bvh, peak) = (figures[0], figures[1], figures[2], figures[3]);
+        assert!(samples > 0.0 && rays >= samples && bvh >= 0.0 && peak > 1.0, "{row:?}");
+    }
+    // The million-triangle spheres need more memory than the 32-triangle box.
+    assert!(rows[2][4].parse::<f64>().unwrap() > rows[0][4].parse::<f64>().unwrap());
+    let o = lucent(&["bench", "throughput", "--baseline", "/nonexistent/lucent"]);
+    assert!(!o.status.success() && stderr(&o).contains("--baseline /nonexistent/lucent: no such program"));
+}

@@ -344,6 +344,9 @@ pub enum BenchKind {
     Robustness,
     /// Error against time for each estimator strategy: CSV, plot and table in --out.
     Convergence,
+    /// Samples/s, rays/s, BVH build time and peak memory on a fixed suite of scenes, each a
+    /// `lucent render` process (with --baseline, against another build, alternating).
+    Throughput,
 }
 
 /// A strategy of the convergence study.
@@ -449,4 +452,10 @@ pub struct BenchArgs {
     /// Worker threads [default: one per core].
     #[arg(long)]
     pub threads: Option<usize>,
+    /// Throughput: another build of lucent to compare with, run in turn with this one.
+    #[arg(long)]
+    pub baseline: Option<PathBuf>,
+    /// Throughput: the folder holding the suite's scenes [default: the repository's tests/assets].
+    #[arg(long)]
+    pub assets: Option<PathBuf>,
 }

@@ -25,6 +25,9 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
     if args.kind == BenchKind::Convergence {
         return super::convergence::run(&convergence_args(args)?);
     }
+    if args.kind == BenchKind::Throughput {
+        return super::throughput::run(args);
+    }
     let size = args.size.unwrap_or(256);
     let settings =
         Settings { width: size, height: size, max_depth: 7, target_spp: Some(args.spp), ..Settings::default() };

@@ -1,6 +1,6 @@
 //! Command line: parsing (`args`), `lucent render` (headless, to PNG/EXR, or a piece),
 //! `lucent merge` (pieces into the image), `lucent farm` (cluster job scripts) and `lucent
-//! bench` (kernel, robustness and convergence measurements), and what `lucent view`
+//! bench` (kernel, robustness, convergence and throughput measurements), and what `lucent view`
 //! hands the viewer. `main.rs` dispatches.
 
 pub mod args;
@@ -10,6 +10,7 @@ pub mod farm;
 pub mod merge;
 mod plot;
 pub mod render;
+mod throughput;
 
 use crate::film::output::{Format, check_writable};
 use crate::viewer::Launch;

@@ -72,6 +72,12 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     let window = args.region.as_deref().map(|r| Window::parse(r, settings.width, settings.height)).transpose()?;
     let session = RenderSession::new(Job { scene: Arc::clone(&scene), camera, settings, window }, args.options.threads)
         .map_err(|e| e.to_string())?;
+    eprintln!(
+        "{}: {} triangles, BVH built in {:.3} s",
+        scene.name,
+        scene.geometry.len(),
+        scene.geometry.build_time().as_secs_f64()
+    );
     eprintln!("{}: simulating {}", scene.name, crate::integrator::simulated_effects(&scene, &settings));
 
     let bar = match (args.time, target) {

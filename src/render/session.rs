@@ -76,7 +76,7 @@ impl Snapshot {
     /// One line of figures: spp, size, time, samples/s, rays/s and NaN/Inf samples dropped.
     pub fn summary(&self, scene: &str) -> String {
         format!(
-            "{scene}: {} spp at {}x{} in {:.2} s: {:.2} Msamples/s, {:.2} Mrays/s, {} NaN/Inf samples dropped",
+            "{scene}: {} spp at {}x{} in {:.3} s: {:.3} Msamples/s, {:.2} Mrays/s, {} NaN/Inf samples dropped",
             self.spp,
             self.width,
             self.height,

@@ -68,6 +68,8 @@ pub struct Geometry {
     t_unit: f32,
     /// 1 / `t_unit`.
     inv_t_unit: f32,
+    /// Time obvhs took to build the BVH.
+    build_time: Duration,
 }
 
 impl Geometry {
@@ -91,22 +93,28 @@ impl Geometry {
                 Aabb::new((min - pad).into(), (max + pad).into())
             })
             .collect();
+        let mut build_time = Duration::default();
         let bvh = if boxes.is_empty() {
             CwBvh::default()
         } else {
-            build_cwbvh(&boxes, BvhBuildParams::medium_build(), &mut Duration::default())
+            build_cwbvh(&boxes, BvhBuildParams::medium_build(), &mut build_time)
         };
         let t_unit = (size * 1e-5).clamp(f32::MIN_POSITIVE * 1e10, 1e30);
         let order = &bvh.primitive_indices;
         let positions = order.iter().map(|&i| positions[i as usize]).collect();
         let attrs = order.iter().map(|&i| attrs[i as usize]).collect();
         let extra = if extra.is_empty() { extra } else { order.iter().map(|&i| extra[i as usize]).collect() };
-        Self { bvh, positions, attrs, extra, t_unit, inv_t_unit: 1.0 / t_unit }
+        Self { bvh, positions, attrs, extra, t_unit, inv_t_unit: 1.0 / t_unit, build_time }
     }
 
     /// Number of triangles (in BVH order, so including any duplicated references).
     pub fn len(&self) -> usize {
         self.positions.len()
+    }
+
+    /// How long building the BVH took.
+    pub fn build_time(&self) -> Duration {
+        self.build_time
     }
 
     /// Whether there is no triangle at all.
