@@ -36,6 +36,8 @@ pub struct Row {
 impl StrategyName {
     /// The settings this strategy renders with, from the study's base settings.
     pub fn settings(self, base: Settings) -> Settings {
+        // Every strategy but pt-mis-sobol draws independent numbers, whatever the default.
+        let base = Settings { sampler: SamplerKind::Independent, ..base };
         let pt = Settings { integrator: Integrator::Path, ..base };
         let drt = |branching, directions| Settings {
             integrator: Integrator::Distribution,

@@ -149,7 +149,7 @@ crate::params! {
         /// Light sampling strategy: none, explicit (no double counting), or MIS.
         light_sampling: LightSampling = LightSampling::Mis, ["lights", "light sampling", Estimator, Domain::Choice(LightSampling::CHOICES), always],
         /// Sequence of the sample numbers: independent, or Owen-scrambled Sobol.
-        sampler: SamplerKind = SamplerKind::Independent, ["sampler", "sampler", Estimator, Domain::Choice(SamplerKind::CHOICES), always],
+        sampler: SamplerKind = SamplerKind::Sobol, ["sampler", "sampler", Estimator, Domain::Choice(SamplerKind::CHOICES), always],
         /// Maximum bounces, as pbrt-v4's maxdepth: 0 emitters only, 1 direct light.
         max_depth: u32 = 7, ["max-depth", "max depth", Estimator, int(0, u32::MAX as u64), always],
         /// Bounce from which Russian roulette may end paths.
