@@ -4,7 +4,7 @@
 //! density `Scene::pdf_li` (pbrt-v4's `Light::SampleLi` and `PDF_Li`). Shadow rays are
 //! the integrator's: a sample says where its shadow ray ends.
 
-use super::{Scene, Surface, geometry::Hit};
+use super::{Scene, Surface};
 use crate::math::{distribution::AliasTable, luminance, warp};
 use crate::spectrum::Spectrum;
 use glam::{Vec2, Vec3};
@@ -211,7 +211,7 @@ impl Scene {
         match light {
             LightRef::Triangle(tri) => {
                 let b = warp::uniform_triangle(u);
-                let emitter = self.surface(&Hit { tri, t: 0.0, b });
+                let emitter = self.light_point(tri, b);
                 let q = emitter.p;
                 let to_light = q - p;
                 let dist2 = to_light.length_squared();
