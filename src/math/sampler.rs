@@ -40,10 +40,10 @@ pub struct Sampler {
 
 enum Inner {
     Independent(Pcg32),
-    /// Sample `index` of the pixel's sequences (scrambled from `scramble`); `dimension`
-    /// counts the draws made so far.
+    /// Sample `index` of the pixel's sequences, its bits reversed (scrambled from
+    /// `scramble`); `dimension` counts the draws made so far.
     Sobol {
-        index: u32,
+        index_rev: u32,
         scramble: u64,
         dimension: u32,
     },
@@ -64,8 +64,8 @@ impl Sampler {
             SamplerKind::Independent => Self::new(pixel, index, seed),
             SamplerKind::Sobol => {
                 let scramble = hash3(hash3(pixel.x as u64, pixel.y as u64, seed), index / SOBOL_LENGTH, 0x50b0);
-                let index = (index % SOBOL_LENGTH) as u32;
-                Self { inner: Inner::Sobol { index, scramble, dimension: 0 } }
+                let index_rev = ((index % SOBOL_LENGTH) as u32).reverse_bits();
+                Self { inner: Inner::Sobol { index_rev, scramble, dimension: 0 } }
             }
         }
     }
@@ -75,9 +75,9 @@ impl Sampler {
     pub fn next_1d(&mut self) -> f32 {
         match &mut self.inner {
             Inner::Independent(rng) => (rng.next_u32() >> 8) as f32 * (1.0 / (1u32 << 24) as f32),
-            Inner::Sobol { index, scramble, dimension } => {
+            Inner::Sobol { index_rev, scramble, dimension } => {
                 *dimension += 1;
-                sobol_pair(*index, draw_seed(*scramble, *dimension))[0]
+                sobol_1d(*index_rev, draw_seed(*scramble, *dimension))
             }
         }
     }
@@ -92,9 +92,9 @@ impl Sampler {
                 let x = self.next_1d();
                 Vec2::new(x, self.next_1d())
             }
-            Inner::Sobol { index, scramble, dimension } => {
+            Inner::Sobol { index_rev, scramble, dimension } => {
                 *dimension += 1;
-                Vec2::from(sobol_pair(*index, draw_seed(*scramble, *dimension)))
+                Vec2::from(sobol_2d(*index_rev, draw_seed(*scramble, *dimension)))
             }
         }
     }
@@ -121,17 +121,32 @@ static SOBOL_TABLES: LazyLock<SobolTables> = LazyLock::new(|| {
     SobolTables { high: table(24), low: table(16) }
 });
 
-/// Point `index` of the 2D Sobol sequence (dimensions 0 and 1) for `seed`: the index
-/// shuffled by a nested uniform scramble, then each coordinate Owen-scrambled on its own
-/// (Burley 2020), so the points of any 2^k prefix stay a (0, k, 2)-net.
+/// Sobol dimensions 0 (low half) and 1 (high half) of the index whose reversed bits are
+/// `index_rev`, shuffled for `seed` by a nested uniform scramble (Burley 2020).
 #[inline]
-fn sobol_pair(index: u32, seed: u32) -> [f32; 2] {
+fn sobol_bits(index_rev: u32, seed: u32) -> u64 {
     let t = &*SOBOL_TABLES;
-    let shuffled = owen_scramble_rev(index.reverse_bits(), hash(seed ^ 0x5851_f42d));
-    let bits = t.high[(shuffled >> 24) as usize] ^ t.low[(shuffled >> 16 & 0xff) as usize];
+    let shuffled = owen_scramble_rev(index_rev, hash(seed ^ 0x5851_f42d));
+    t.high[(shuffled >> 24) as usize] ^ t.low[(shuffled >> 16 & 0xff) as usize]
+}
+
+/// Point `index` (bits reversed in `index_rev`) of the 2D Sobol sequence for `seed`: the
+/// shuffled point with each coordinate Owen-scrambled on its own, so the points of any 2^k
+/// prefix stay a (0, k, 2)-net. One 64-bit reversal turns both back.
+#[inline]
+fn sobol_2d(index_rev: u32, seed: u32) -> [f32; 2] {
+    let bits = sobol_bits(index_rev, seed);
     let x = owen_scramble_rev(bits as u32, hash(seed ^ 0x4c95_7f2d));
     let y = owen_scramble_rev((bits >> 32) as u32, hash(seed ^ 0x2545_f491));
-    [u32_to_f32_norm(x.reverse_bits()), u32_to_f32_norm(y.reverse_bits())]
+    let both = (x as u64 | (y as u64) << 32).reverse_bits();
+    [u32_to_f32_norm((both >> 32) as u32), u32_to_f32_norm(both as u32)]
+}
+
+/// The first coordinate of `sobol_2d`, alone.
+#[inline]
+fn sobol_1d(index_rev: u32, seed: u32) -> f32 {
+    let x = owen_scramble_rev(sobol_bits(index_rev, seed) as u32, hash(seed ^ 0x4c95_7f2d));
+    u32_to_f32_norm(x.reverse_bits())
 }
 
 /// A 64-bit finaliser (the one of SplitMix64, Steele et al. 2014): avalanches every bit.
