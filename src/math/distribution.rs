@@ -76,6 +76,11 @@ pub struct Distribution1D {
     func: Vec<f32>,
     cdf: Vec<f32>,
     integral: f32,
+    /// Guide table (Chen and Asau 1974): entry j is the piece holding u = j / G, for G + 1
+    /// entries with G about a quarter of the pieces, so that inverting the CDF searches a
+    /// few neighbouring entries instead of bisecting the whole of it (the bisection's
+    /// dependent loads cost 12% of an environment-lit render, ToyCar).
+    guide: Vec<u32>,
 }
 
 impl Distribution1D {
@@ -96,7 +101,20 @@ impl Distribution1D {
             cdf.iter_mut().enumerate().for_each(|(i, c)| *c = i as f32 / n as f32);
         }
         *cdf.last_mut().expect("n + 1 entries") = 1.0;
-        Self { func, cdf, integral }
+        let g = cdf.len().div_ceil(4);
+        let guide = (0..=g).map(|j| (cdf.partition_point(|&c| c <= j as f32 / g as f32) - 1) as u32).collect();
+        Self { func, cdf, integral, guide }
+    }
+
+    /// The piece holding `u`: the last i with cdf[i] <= u, as bisecting the whole CDF finds
+    /// it, searched between guide entries one bucket either side of u's (which rounding in
+    /// u * G cannot move it past).
+    fn piece(&self, u: f32) -> usize {
+        let g = self.guide.len() - 1;
+        let j = ((u * g as f32) as usize).min(g - 1);
+        let lo = self.guide[j.saturating_sub(1)] as usize;
+        let hi = (self.guide[(j + 2).min(g)] as usize + 1).min(self.cdf.len());
+        lo + self.cdf[lo..hi].partition_point(|&c| c <= u) - 1
     }
 
     /// Mean of the function over [0, 1).
@@ -107,7 +125,7 @@ impl Distribution1D {
     /// The point for uniform `u`, its density, and its piece.
     pub fn sample(&self, u: f32) -> (f32, f32, usize) {
         let n = self.func.len();
-        let i = (self.cdf.partition_point(|&c| c <= u) - 1).min(n - 1);
+        let i = self.piece(u).min(n - 1);
         let width = self.cdf[i + 1] - self.cdf[i];
         let du = if width > 0.0 { (u - self.cdf[i]) / width } else { 0.0 };
         let x = ((i as f32 + du.clamp(0.0, 1.0)) / n as f32).min(1.0 - f32::EPSILON);
@@ -161,6 +179,35 @@ impl Distribution2D {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_guide_table_finds_the_piece_bisection_finds() {
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = || {
+            state = crate::math::sampler::mix64(state.wrapping_add(0x9e37_79b9_7f4a_7c15));
+            (state >> 40) as f32 / (1u64 << 24) as f32
+        };
+        for n in [1usize, 2, 3, 5, 17, 64, 1000] {
+            // Zeros, spikes and smooth stretches, so that guide buckets hold many pieces or none.
+            let func: Vec<f32> = (0..n)
+                .map(|i| {
+                    if i % 7 == 3 {
+                        0.0
+                    } else if i % 13 == 5 {
+                        1e4
+                    } else {
+                        next()
+                    }
+                })
+                .collect();
+            let d = Distribution1D::new(func);
+            let probes =
+                d.cdf.clone().into_iter().chain([0.0, 1.0 - f32::EPSILON / 2.0]).chain((0..20_000).map(|_| next()));
+            for u in probes.filter(|u| (0.0..1.0).contains(u)) {
+                assert_eq!(d.piece(u), d.cdf.partition_point(|&c| c <= u) - 1, "n {n}, u {u}");
+            }
+        }
+    }
 
     #[test]
     fn the_alias_table_picks_each_index_exactly_in_proportion() {
