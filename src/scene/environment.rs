@@ -3,7 +3,7 @@
 //! importance-sampled by a 2D piecewise-constant density over the texels, in proportion to
 //! radiance x sin(theta).
 
-use crate::math::{distribution::Distribution2D, luminance, warp};
+use crate::math::{distribution::Distribution2D, luminance, warp, wrap_index};
 use crate::spectrum::Spectrum;
 use glam::{Vec2, Vec3};
 use serde::{Deserialize, Serialize};
@@ -121,7 +121,7 @@ impl EnvMap {
     }
 
     fn texel(&self, x: i64, y: i64) -> Vec3 {
-        let x = x.rem_euclid(self.width as i64) as usize;
+        let x = wrap_index(x, self.width as i64) as usize;
         let y = y.clamp(0, self.height as i64 - 1) as usize;
         self.texels[y * self.width + x]
     }

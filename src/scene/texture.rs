@@ -1,5 +1,6 @@
 //! Texture images (8-bit RGBA) and their samplers: wrap modes, nearest or bilinear lookup.
 
+use crate::math::wrap_index;
 use glam::{Vec2, Vec4};
 
 /// An 8-bit RGBA image as decoded from the file.
@@ -78,10 +79,10 @@ impl Image {
 
 fn wrap(i: i64, n: i64, mode: Wrap) -> i64 {
     match mode {
-        Wrap::Repeat => i.rem_euclid(n),
+        Wrap::Repeat => wrap_index(i, n),
         Wrap::ClampToEdge => i.clamp(0, n - 1),
         Wrap::MirroredRepeat => {
-            let m = i.rem_euclid(2 * n);
+            let m = wrap_index(i, 2 * n);
             if m < n { m } else { 2 * n - 1 - m }
         }
     }
