@@ -374,25 +374,18 @@ impl Scene {
 
     /// Surface data at a hit, with the material's normal map applied to the shading normal.
     pub fn surface(&self, hit: &Hit) -> Surface {
-        let p = self.geometry.positions(hit.tri);
         let a = self.geometry.attrs(hit.tri);
         let b = hit.b;
         let lerp = |v: [Vec4; 3]| v[0] * b[0] + v[1] * b[1] + v[2] * b[2];
-        let pos = p[0] * b[0] + p[1] * b[1] + p[2] * b[2];
+        let mut surface = self.light_point(hit.tri, b);
         let ns = (a.normals[0] * b[0] + a.normals[1] * b[1] + a.normals[2] * b[2]).normalize_or_zero();
-        let uv0 = a.uvs[0] * b[0] + a.uvs[1] * b[1] + a.uvs[2] * b[2];
+        if ns != Vec3::ZERO {
+            surface.ns = ns;
+        }
         let extra = self.geometry.extra(hit.tri);
-        let mut surface = Surface {
-            p: pos,
-            p_error: interpolation_error(b, *p),
-            ng: a.ng,
-            ns: if ns == Vec3::ZERO { a.ng } else { ns },
-            uv: [uv0, extra.map_or(uv0, |e| e.uv1[0] * b[0] + e.uv1[1] * b[1] + e.uv1[2] * b[2])],
-            color: extra.map_or(Vec4::ONE, |e| lerp(e.colors)),
-            material: a.material,
-            tri: hit.tri,
-            b,
-        };
+        if let Some(e) = extra {
+            surface.color = lerp(e.colors);
+        }
         if let (Some(e), Some(map)) = (extra, self.materials[a.material as usize].normal_tex) {
             let tangent = lerp(e.tangents);
             let m = map.sample(&self.textures, &self.images, &surface.uv, ColorSpace::Linear).xyz() * 2.0 - 1.0;
@@ -402,11 +395,11 @@ impl Scene {
         surface
     }
 
-    /// The point of triangle `tri` at barycentrics `b` as light sampling needs it: position,
-    /// its error bound, the geometric normal and the texture coordinates (for emission
-    /// textures). The shading normal is the geometric one and the vertex colour white: no
-    /// normal map is sampled, since an emitter's sample reads neither (2.5% of a Cornell
-    /// render went to the full `surface` of light points).
+    /// The point of triangle `tri` at barycentrics `b` as light sampling needs it, and
+    /// `surface` starts from: position, its error bound, the geometric normal and the
+    /// texture coordinates (for emission textures). The shading normal is the geometric one
+    /// and the vertex colour white: no normal map is sampled, since an emitter's sample reads
+    /// neither (2.5% of a Cornell render went to the full `surface` of light points).
     pub fn light_point(&self, tri: u32, b: [f32; 3]) -> Surface {
         let p = self.geometry.positions(tri);
         let a = self.geometry.attrs(tri);
