@@ -1,6 +1,6 @@
 //! Triangles in BVH order, obvhs's CWBVH over them, and a watertight ray/triangle test.
 
-use glam::{Vec2, Vec3, Vec3A, Vec4};
+use glam::{UVec2, Vec2, Vec3, Vec3A, Vec4};
 use obvhs::{
     BvhBuildParams,
     aabb::Aabb,
@@ -8,7 +8,10 @@ use obvhs::{
     ray::{Ray as BvhRay, RayHit},
     triangle::Triangle,
 };
+use std::cell::Cell;
 use std::time::Duration;
+
+use super::watertight::{SoaTriangles, Watertight, intersect_group};
 
 /// Per-triangle shading attributes, stored in BVH order beside the positions.
 #[derive(Clone, Copy, Debug)]
@@ -61,6 +64,8 @@ pub struct Hit {
 pub struct Geometry {
     bvh: CwBvh,
     positions: Vec<[Vec3; 3]>,
+    /// The positions again as structure of arrays, for testing four triangles at once.
+    soa: SoaTriangles,
     attrs: Vec<TriAttrs>,
     extra: Vec<TriExtra>,
     /// Length of the direction handed to obvhs, so that its ray parameter is in units of
@@ -101,10 +106,11 @@ impl Geometry {
         };
         let t_unit = (size * 1e-5).clamp(f32::MIN_POSITIVE * 1e10, 1e30);
         let order = &bvh.primitive_indices;
-        let positions = order.iter().map(|&i| positions[i as usize]).collect();
+        let positions: Vec<[Vec3; 3]> = order.iter().map(|&i| positions[i as usize]).collect();
+        let soa = SoaTriangles::new(&positions);
         let attrs = order.iter().map(|&i| attrs[i as usize]).collect();
         let extra = if extra.is_empty() { extra } else { order.iter().map(|&i| extra[i as usize]).collect() };
-        Self { bvh, positions, attrs, extra, t_unit, inv_t_unit: 1.0 / t_unit, build_time }
+        Self { bvh, positions, soa, attrs, extra, t_unit, inv_t_unit: 1.0 / t_unit, build_time }
     }
 
     /// Number of triangles (in BVH order, so including any duplicated references).
@@ -158,32 +164,6 @@ impl Geometry {
         self.occluded_filtered(ray, watertight, |_, _| true)
     }
 
-    /// A hit on triangle `id` that `accept` (triangle, barycentrics) takes: obvhs's ray
-    /// parameter, the ray's own and the barycentrics.
-    #[inline]
-    fn candidate(
-        &self,
-        ray: &Ray,
-        wt: &Watertight,
-        r: &BvhRay,
-        id: usize,
-        watertight: bool,
-        accept: &impl Fn(u32, [f32; 3]) -> bool,
-    ) -> Option<(f32, f32, [f32; 3])> {
-        let k = self.t_unit;
-        let (t_bvh, t, b) = if watertight {
-            let (t, b) = wt.intersect(&self.positions[id], r.tmax * k)?;
-            (t * self.inv_t_unit, t, b)
-        } else {
-            let t = self.moller(id, r);
-            if t == f32::INFINITY {
-                return None;
-            }
-            (t, t * k, barycentrics(ray.o + t * k * ray.d, &self.positions[id]))
-        };
-        accept(id as u32, b).then_some((t_bvh, t, b))
-    }
-
     /// `intersect_with`, ignoring the hits `accept` (triangle, barycentrics) turns down.
     pub fn intersect_filtered(
         &self,
@@ -194,24 +174,28 @@ impl Geometry {
         if self.is_empty() {
             return None;
         }
-        let mut hit = RayHit::none();
+        if !watertight {
+            return self.intersect_moller(ray, accept);
+        }
         let wt = Watertight::new(ray);
-        // The closest hit's distance and barycentrics, kept as obvhs takes it (a parameter
-        // below the ray's current end), instead of testing its triangle again afterwards.
+        let r = to_bvh_ray(ray, self.t_unit);
+        // The closest hit so far, in obvhs's ray units as its node tests take it.
+        let bound = Cell::new(r.tmax);
         let mut closest = None;
-        let found = self.bvh.ray_traverse(to_bvh_ray(ray, self.t_unit), &mut hit, |r, id| {
-            match self.candidate(ray, &wt, r, id, watertight, &accept) {
-                Some((t_bvh, t, b)) => {
-                    if t_bvh < r.tmax {
-                        closest = Some((t, b));
-                    }
-                    t_bvh
+        self.traverse(&r, |group_base, group, node_ray| {
+            let tmax = || bound.get() * self.t_unit;
+            intersect_group(&wt, &self.soa, &self.positions, group_base, group, tmax, |tri, t, b| {
+                let t_bvh = t * self.inv_t_unit;
+                if accept(tri, b) && t_bvh < bound.get() {
+                    bound.set(t_bvh);
+                    closest = Some(Hit { tri, t, b });
                 }
-                None => f32::INFINITY,
-            }
+                true
+            });
+            node_ray.tmax = bound.get();
+            true
         });
-        let (t, b) = closest.filter(|_| found)?;
-        Some(Hit { tri: hit.primitive_id, t, b })
+        closest
     }
 
     /// `occluded_with`, ignoring the hits `accept` turns down.
@@ -219,9 +203,77 @@ impl Geometry {
         if self.is_empty() {
             return false;
         }
+        if !watertight {
+            return self.occluded_moller(ray, accept);
+        }
         let wt = Watertight::new(ray);
-        !self.bvh.ray_traverse_miss(to_bvh_ray(ray, self.t_unit), |r, id| {
-            self.candidate(ray, &wt, r, id, watertight, &accept).map_or(f32::INFINITY, |c| c.0)
+        let r = to_bvh_ray(ray, self.t_unit);
+        let tmax = r.tmax * self.t_unit;
+        let mut blocked = false;
+        self.traverse(&r, |group_base, group, _| {
+            intersect_group(
+                &wt,
+                &self.soa,
+                &self.positions,
+                group_base,
+                group,
+                || tmax,
+                |tri, t, b| {
+                    blocked = accept(tri, b) && t * self.inv_t_unit < r.tmax;
+                    !blocked
+                },
+            );
+            !blocked
+        });
+        blocked
+    }
+
+    /// obvhs's CWBVH traversal, handing `leaves` each node's group of hit triangles at once
+    /// (a base index and a bit per triangle above it) with the ray the node tests use, whose
+    /// `tmax` it may lower; `leaves` returns false to stop. obvhs's own `ray_traverse`
+    /// takes triangles one at a time, which rules out testing four together.
+    #[inline]
+    fn traverse(&self, ray: &BvhRay, mut leaves: impl FnMut(u32, u32, &mut BvhRay) -> bool) {
+        let mut node_ray = *ray;
+        let mut state = self.bvh.new_traversal(ray.direction);
+        let mut node;
+        obvhs::traverse!(self.bvh, node, state, node.intersect_ray(&node_ray, state.oct_inv4), {
+            // The macro has just taken the group's highest bit for one triangle: put it
+            // back, take the whole group, and leave none for the macro's next turn.
+            let group = state.primitive_group.y | 1 << (state.primitive_id - state.primitive_group.x);
+            state.primitive_group.y = 0;
+            if !leaves(state.primitive_group.x, group, &mut node_ray) {
+                break;
+            }
+        });
+    }
+
+    /// Closest hit with obvhs's own traversal and Moller-Trumbore test.
+    fn intersect_moller(&self, ray: &Ray, accept: impl Fn(u32, [f32; 3]) -> bool) -> Option<Hit> {
+        let mut hit = RayHit::none();
+        let k = self.t_unit;
+        let found = self.bvh.ray_traverse(to_bvh_ray(ray, k), &mut hit, |r, id| {
+            let t = self.moller(id, r);
+            let b = barycentrics(ray.o + t * k * ray.d, &self.positions[id]);
+            if t < f32::INFINITY && accept(id as u32, b) { t } else { f32::INFINITY }
+        });
+        found.then(|| {
+            let t = hit.t * k;
+            Hit {
+                tri: hit.primitive_id,
+                t,
+                b: barycentrics(ray.o + t * ray.d, &self.positions[hit.primitive_id as usize]),
+            }
+        })
+    }
+
+    /// Occlusion with obvhs's own traversal and Moller-Trumbore test.
+    fn occluded_moller(&self, ray: &Ray, accept: impl Fn(u32, [f32; 3]) -> bool) -> bool {
+        let k = self.t_unit;
+        !self.bvh.ray_traverse_miss(to_bvh_ray(ray, k), |r, id| {
+            let t = self.moller(id, r);
+            let hit = t < f32::INFINITY && accept(id as u32, barycentrics(ray.o + t * k * ray.d, &self.positions[id]));
+            if hit { t } else { f32::INFINITY }
         })
     }
 
@@ -261,66 +313,6 @@ fn to_bvh_ray(ray: &Ray, k: f32) -> BvhRay {
         inv_direction: Vec3A::from(inv),
         tmin: 0.0,
         tmax: ray.tmax / k,
-    }
-}
-
-/// Per-ray precomputation of the watertight ray/triangle test of Woop, Benthin and Wald
-/// (JCGT 2013): the ray is sheared onto +z so that edge functions of shared edges agree
-/// exactly, and ties are resolved in f64, so no ray slips between adjacent triangles.
-struct Watertight {
-    o: Vec3,
-    k: [usize; 3],
-    shear: Vec3,
-}
-
-impl Watertight {
-    fn new(ray: &Ray) -> Self {
-        let d = ray.d;
-        let kz = d.abs().max_position();
-        let mut kx = (kz + 1) % 3;
-        let mut ky = (kx + 1) % 3;
-        if d[kz] < 0.0 {
-            std::mem::swap(&mut kx, &mut ky);
-        }
-        let shear = Vec3::new(d[kx] / d[kz], d[ky] / d[kz], 1.0 / d[kz]);
-        Self { o: ray.o, k: [kx, ky, kz], shear }
-    }
-
-    /// Distance parameter in (0, tmax) and barycentrics, or None.
-    #[inline]
-    fn intersect(&self, p: &[Vec3; 3], tmax: f32) -> Option<(f32, [f32; 3])> {
-        let [kx, ky, kz] = self.k;
-        // Plain arrays, whose indices the assertion bounds: indexing a glam vector by a
-        // runtime axis is a chain of compares and branches, and took 42% of this test's
-        // instructions (callgrind, Cornell box).
-        assert!(kx < 3 && ky < 3 && kz < 3);
-        let s = self.shear;
-        let (a, b, c) = ((p[0] - self.o).to_array(), (p[1] - self.o).to_array(), (p[2] - self.o).to_array());
-        let (ax, ay) = (a[kx] - s.x * a[kz], a[ky] - s.y * a[kz]);
-        let (bx, by) = (b[kx] - s.x * b[kz], b[ky] - s.y * b[kz]);
-        let (cx, cy) = (c[kx] - s.x * c[kz], c[ky] - s.y * c[kz]);
-        let mut u = cx * by - cy * bx;
-        let mut v = ax * cy - ay * cx;
-        let mut w = bx * ay - by * ax;
-        if u == 0.0 || v == 0.0 || w == 0.0 {
-            let d = |x1: f32, y1: f32, x2: f32, y2: f32| (x1 as f64 * y2 as f64 - y1 as f64 * x2 as f64) as f32;
-            u = d(cx, cy, bx, by);
-            v = d(ax, ay, cx, cy);
-            w = d(bx, by, ax, ay);
-        }
-        if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
-            return None;
-        }
-        let det = u + v + w;
-        if det == 0.0 {
-            return None;
-        }
-        let t = (u * (s.z * a[kz]) + v * (s.z * b[kz]) + w * (s.z * c[kz])) / det;
-        if !(t > 0.0 && t < tmax) {
-            return None;
-        }
-        let inv = 1.0 / det;
-        Some((t, [u * inv, v * inv, w * inv]))
     }
 }
 

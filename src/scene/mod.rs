@@ -9,6 +9,7 @@ pub mod material;
 pub mod shading;
 pub mod shapes;
 pub mod texture;
+mod watertight;
 
 use crate::math::{
     float::{gamma, interpolation_error, offset_ray_origin},
