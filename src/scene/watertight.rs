@@ -26,13 +26,17 @@ struct Edges {
 impl Watertight {
     pub(super) fn new(ray: &Ray) -> Self {
         let d = ray.d;
-        let kz = d.abs().max_position();
-        let mut kx = (kz + 1) % 3;
-        let mut ky = (kx + 1) % 3;
-        if d[kz] < 0.0 {
+        // The two other axes in cyclic order after the dominant one, swapped when the ray
+        // runs along its negative direction (keeping the winding); a table instead of `% 3`.
+        const AXES: [[usize; 2]; 3] = [[1, 2], [2, 0], [0, 1]];
+        let kz = d.abs().max_position().min(2);
+        let dz = d.to_array()[kz];
+        let [mut kx, mut ky] = AXES[kz];
+        if dz < 0.0 {
             std::mem::swap(&mut kx, &mut ky);
         }
-        let shear = Vec3::new(d[kx] / d[kz], d[ky] / d[kz], 1.0 / d[kz]);
+        let (dx, dy) = (d.to_array()[kx], d.to_array()[ky]);
+        let shear = Vec3::new(dx / dz, dy / dz, 1.0 / dz);
         Self { o: ray.o, k: [kx, ky, kz], shear }
     }
 
