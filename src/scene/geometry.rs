@@ -1,4 +1,4 @@
-//! Triangles in BVH order, obvhs's CWBVH over them, and a watertight ray/triangle test.
+//! Triangles in BVH order, obvhs's CWBVH over them, and closest-hit and occlusion queries.
 
 use glam::{UVec2, Vec2, Vec3, Vec3A, Vec4};
 use obvhs::{
@@ -251,37 +251,36 @@ impl Geometry {
     /// Closest hit with obvhs's own traversal and Moller-Trumbore test.
     fn intersect_moller(&self, ray: &Ray, accept: impl Fn(u32, [f32; 3]) -> bool) -> Option<Hit> {
         let mut hit = RayHit::none();
-        let k = self.t_unit;
-        let found = self.bvh.ray_traverse(to_bvh_ray(ray, k), &mut hit, |r, id| {
-            let t = self.moller(id, r);
-            let b = barycentrics(ray.o + t * k * ray.d, &self.positions[id]);
-            if t < f32::INFINITY && accept(id as u32, b) { t } else { f32::INFINITY }
-        });
-        found.then(|| {
-            let t = hit.t * k;
-            Hit {
-                tri: hit.primitive_id,
-                t,
-                b: barycentrics(ray.o + t * ray.d, &self.positions[hit.primitive_id as usize]),
+        // The closest hit's barycentrics, kept instead of computing them again afterwards.
+        let mut closest = None;
+        let found = self.bvh.ray_traverse(to_bvh_ray(ray, self.t_unit), &mut hit, |r, id| {
+            match self.moller(ray, id, r).filter(|&(_, b)| accept(id as u32, b)) {
+                Some((t, b)) => {
+                    if t < r.tmax {
+                        closest = Some(b);
+                    }
+                    t
+                }
+                None => f32::INFINITY,
             }
-        })
+        });
+        let b = closest.filter(|_| found)?;
+        Some(Hit { tri: hit.primitive_id, t: hit.t * self.t_unit, b })
     }
 
     /// Occlusion with obvhs's own traversal and Moller-Trumbore test.
     fn occluded_moller(&self, ray: &Ray, accept: impl Fn(u32, [f32; 3]) -> bool) -> bool {
-        let k = self.t_unit;
-        !self.bvh.ray_traverse_miss(to_bvh_ray(ray, k), |r, id| {
-            let t = self.moller(id, r);
-            let hit = t < f32::INFINITY && accept(id as u32, barycentrics(ray.o + t * k * ray.d, &self.positions[id]));
-            if hit { t } else { f32::INFINITY }
+        !self.bvh.ray_traverse_miss(to_bvh_ray(ray, self.t_unit), |r, id| {
+            self.moller(ray, id, r).filter(|&(_, b)| accept(id as u32, b)).map_or(f32::INFINITY, |(t, _)| t)
         })
     }
 
-    /// obvhs's Moller-Trumbore test on triangle `id`, in obvhs's ray units; positive t only.
-    fn moller(&self, id: usize, r: &BvhRay) -> f32 {
+    /// obvhs's Moller-Trumbore test on triangle `id`: positive t in obvhs's ray units, and
+    /// the barycentrics of the hit point.
+    fn moller(&self, ray: &Ray, id: usize, r: &BvhRay) -> Option<(f32, [f32; 3])> {
         let [v0, v1, v2] = self.positions[id].map(Vec3A::from);
         let t = Triangle { v0, v1, v2 }.intersect(r);
-        if t > 0.0 { t } else { f32::INFINITY }
+        (t > 0.0 && t < f32::INFINITY).then(|| (t, barycentrics(ray.o + t * self.t_unit * ray.d, &self.positions[id])))
     }
 }
 

@@ -29,6 +29,7 @@ impl Watertight {
         // The two other axes in cyclic order after the dominant one, swapped when the ray
         // runs along its negative direction (keeping the winding); a table instead of `% 3`.
         const AXES: [[usize; 2]; 3] = [[1, 2], [2, 0], [0, 1]];
+        // `min` tells the compiler the index is in range (no bounds checks below).
         let kz = d.abs().max_position().min(2);
         let dz = d.to_array()[kz];
         let [mut kx, mut ky] = AXES[kz];
@@ -204,7 +205,8 @@ mod tests {
         let mut s = Pcg32::new(7, 1);
         let v = |s: &mut Pcg32| Vec3::new(uniform(s), uniform(s), uniform(s)) * 2.0 - 1.0;
         // Random triangles, then triangles sharing edges and vertices on a grid, where rays
-        // through the grid's points give edge functions of exactly zero (the f64 path).
+        // through the grid's points give edge functions of exactly zero (lanes handed to
+        // the scalar test).
         let mut positions: Vec<[Vec3; 3]> = (0..40).map(|_| [v(&mut s), v(&mut s), v(&mut s)]).collect();
         for y in 0..4 {
             for x in 0..4 {
