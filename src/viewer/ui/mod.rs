@@ -1,21 +1,22 @@
 //! The egui panels: status and render controls on the left, the selection's material and
 //! the lights on the right, the converging image in the middle with camera controls.
 
+mod editors;
+mod image;
+mod widgets;
+
 use super::state::ViewerState;
 use crate::film::tonemap::DISPLAY;
 use crate::integrator::settings::DRT_RAY_BUDGET;
 use crate::integrator::{Integrator, Settings};
-use crate::medium::{Volume, phase::MAX_G};
-use crate::params::{Domain, Group, Param, Value};
+use crate::params::Group;
 use crate::render::Snapshot;
 use crate::scene::environment::BUILT_IN;
-use egui::{Color32, Key, PointerButton, Rect, Sense, Ui, pos2};
+use egui::{Color32, Key, Ui};
 use egui_plot::{GridMark, Legend, Line, Plot, log_grid_spacer};
-use glam::{UVec2, Vec2, Vec3};
-use std::time::{Duration, Instant};
-
-/// How long after the last camera input the full-resolution render resumes.
-const PREVIEW_HOLD: Duration = Duration::from_millis(200);
+use std::time::Instant;
+use widgets::colour_and_amount;
+pub(super) use widgets::param_widget;
 
 /// UI-only state that does not affect the image.
 pub struct UiState {
@@ -46,10 +47,10 @@ pub fn draw(ui: &mut Ui, state: &mut ViewerState, ui_state: &mut UiState) {
     });
     if state.selected.is_some() || !state.scene.lights.is_empty() {
         egui::Panel::right("editors").resizable(true).default_size(260.0).show(ui, |ui| {
-            egui::ScrollArea::vertical().show(ui, |ui| editors(ui, state));
+            egui::ScrollArea::vertical().show(ui, |ui| editors::editors(ui, state));
         });
     }
-    egui::CentralPanel::no_frame().show(ui, |ui| image(ui, state, ui_state));
+    egui::CentralPanel::no_frame().show(ui, |ui| image::image(ui, state, ui_state));
     if ui.input(|i| i.key_pressed(Key::F12)) {
         screenshot(state);
     }
@@ -154,74 +155,6 @@ fn estimator(ui: &mut Ui, state: &mut ViewerState) {
             param_widget(ui, p, s);
         }
     });
-}
-
-/// The widget of one table parameter, shown only where the parameter applies: a checkbox,
-/// a slider for short ranges, a drag value for long ones, a menu for choices; optional
-/// parameters get a checkbox that sets or unsets them.
-pub(super) fn param_widget<T>(ui: &mut Ui, p: &Param<T>, target: &mut T) {
-    if !(p.shown)(target) {
-        return;
-    }
-    let value = (p.get)(target);
-    let new = match (p.domain, value) {
-        (Domain::Switch, Value::Bool(mut on)) => {
-            ui.checkbox(&mut on, p.label).on_hover_text(p.help);
-            Value::Bool(on)
-        }
-        (Domain::Choice(options), Value::Choice(mut name)) => {
-            egui::ComboBox::from_label(p.label).selected_text(name).show_ui(ui, |ui| {
-                for c in options {
-                    ui.selectable_value(&mut name, c.name, c.name).on_hover_text(c.help);
-                }
-            });
-            Value::Choice(name)
-        }
-        (Domain::Int { min, max, optional }, v) => {
-            ui.horizontal(|ui| {
-                let mut set = v != Value::Unset;
-                if optional {
-                    ui.checkbox(&mut set, p.label).on_hover_text(p.help);
-                }
-                let mut i = if let Value::Int(i) = v { i } else { 256u64.clamp(min, max) };
-                if set {
-                    let widget = if max - min <= 64 {
-                        ui.add(egui::Slider::new(&mut i, min..=max).text(if optional { "" } else { p.label }))
-                    } else {
-                        ui.add(egui::DragValue::new(&mut i).range(min..=max))
-                    };
-                    widget.on_hover_text(p.help);
-                    if !optional && max - min > 64 {
-                        ui.label(p.label);
-                    }
-                }
-                if set { Value::Int(i) } else { Value::Unset }
-            })
-            .inner
-        }
-        (Domain::Float { min, max, optional }, v) => {
-            ui.horizontal(|ui| {
-                let mut set = v != Value::Unset;
-                if optional {
-                    ui.checkbox(&mut set, p.label).on_hover_text(p.help);
-                }
-                let mut x = if let Value::Float(x) = v { x } else { 10.0f32.clamp(min, max) };
-                if set {
-                    if max - min <= 100.0 {
-                        ui.add(egui::Slider::new(&mut x, min..=max).text(if optional { "" } else { p.label }));
-                    } else {
-                        ui.add(egui::DragValue::new(&mut x).range(min..=max).speed(0.1));
-                    }
-                }
-                if set { Value::Float(x) } else { Value::Unset }
-            })
-            .inner
-        }
-        _ => value,
-    };
-    if new != value {
-        (p.set)(target, new);
-    }
 }
 
 /// The estimated error against time (log-log) of this job and the previous ones, the time
@@ -353,190 +286,4 @@ fn files(ui: &mut Ui, state: &mut ViewerState) {
             state.error = Some(e);
         }
     });
-}
-
-/// Colour and magnitude of an RGB quantity, edited separately; returns the new value only
-/// if a widget changed (so values that do not round-trip exactly never trigger a restart).
-fn colour_and_amount(ui: &mut Ui, value: Vec3, label: &str, range: std::ops::RangeInclusive<f32>) -> Option<Vec3> {
-    let peak = value.max_element();
-    let mut colour = if peak > 0.0 { (value / peak).to_array() } else { [1.0; 3] };
-    let mut amount = peak;
-    let mut changed = false;
-    ui.horizontal(|ui| {
-        changed |= ui.color_edit_button_rgb(&mut colour).changed();
-        changed |= ui.add(egui::Slider::new(&mut amount, range).logarithmic(true).text(label)).changed();
-    });
-    changed.then(|| Vec3::from(colour) * amount)
-}
-
-/// The medium inside a volume, in glTF's terms: attenuation colour at a distance (the
-/// extinction), multiscatter colour (the albedo) and the Henyey-Greenstein g. Values are
-/// written back only when a widget changed, so an unedited volume never restarts the render.
-fn volume_editor(ui: &mut Ui, v: &mut Volume) {
-    ui.label("volume (KHR_materials_volume, _volume_scatter)");
-    if v.grid.is_some() {
-        grid_editor(ui, v);
-        return;
-    }
-    let mut distance = 1.0 / v.sigma_t.max_element().max(1e-6);
-    let mut attenuation = (-v.sigma_t * distance).exp().to_array();
-    let mut multiscatter = Volume::multiscatter_colour(v.albedo).to_array();
-    let mut g = v.g;
-    let mut changed = false;
-    ui.horizontal(|ui| {
-        changed |= ui.color_edit_button_rgb(&mut attenuation).changed();
-        ui.label("attenuation colour");
-    });
-    let range = 1e-4..=1e4;
-    changed |= ui.add(egui::Slider::new(&mut distance, range).logarithmic(true).text("attenuation distance")).changed();
-    ui.horizontal(|ui| {
-        changed |= ui.color_edit_button_rgb(&mut multiscatter).changed();
-        ui.label("multiscatter colour");
-    });
-    changed |= ui.add(egui::Slider::new(&mut g, -MAX_G..=MAX_G).text("anisotropy g")).changed();
-    if changed {
-        let attenuation = Vec3::from(attenuation).clamp(Vec3::splat(1e-6), Vec3::ONE);
-        *v = Volume {
-            sigma_t: -attenuation.map(f32::ln) / distance,
-            albedo: Volume::single_scatter_albedo(Vec3::from(multiscatter)),
-            g,
-            ..*v
-        };
-    }
-}
-
-/// A density grid's medium (from `SCENE.media.toml`): its density scale (the grey
-/// extinction where the grid's value is 1), albedo and g.
-fn grid_editor(ui: &mut Ui, v: &mut Volume) {
-    let mut density = v.sigma_t.x;
-    let mut albedo = v.albedo.to_array();
-    let mut g = v.g;
-    let mut changed = false;
-    changed |= ui.add(egui::Slider::new(&mut density, 0.0..=1e4).logarithmic(true).text("density scale")).changed();
-    ui.horizontal(|ui| {
-        changed |= ui.color_edit_button_rgb(&mut albedo).changed();
-        ui.label("albedo");
-    });
-    changed |= ui.add(egui::Slider::new(&mut g, -MAX_G..=MAX_G).text("anisotropy g")).changed();
-    if changed {
-        *v = Volume {
-            sigma_t: Vec3::splat(density.max(0.0)),
-            albedo: Vec3::from(albedo).clamp(Vec3::ZERO, Vec3::ONE),
-            g,
-            ..*v
-        };
-    }
-}
-
-fn editors(ui: &mut Ui, state: &mut ViewerState) {
-    if let Some(index) = state.selected {
-        let mut m = state.scene.materials[index as usize].clone();
-        ui.heading(format!("Material: {}", m.name));
-        if let Some(measured) = &m.measured {
-            ui.label(format!("measured BRDF {} (replaces the parameters below)", measured.path.display()));
-        }
-        let mut base = m.base_color.to_array();
-        ui.horizontal(|ui| {
-            ui.color_edit_button_rgb(&mut base);
-            ui.label("base colour");
-        });
-        m.base_color = Vec3::from(base);
-        ui.add(egui::Slider::new(&mut m.metallic, 0.0..=1.0).text("metallic"));
-        ui.add(egui::Slider::new(&mut m.roughness, 0.0..=1.0).text("roughness"));
-        ui.add(egui::Slider::new(&mut m.specular, 0.0..=1.0).text("specular"));
-        ui.add(egui::Slider::new(&mut m.ior, 1.0..=3.0).text("IOR"));
-        if m.volume.is_some() && m.transmission > 0.0 {
-            ui.add(egui::Slider::new(&mut m.dispersion, 0.0..=2.0).text("dispersion (20 / Abbe number)"));
-        }
-        if let Some(e) = colour_and_amount(ui, m.emissive, "emission", 0.0..=1000.0) {
-            m.emissive = e;
-        }
-        if let Some(v) = &mut m.volume {
-            volume_editor(ui, v);
-        }
-        state.edit(|materials, _| materials[index as usize] = m);
-        if ui.button("Deselect").clicked() {
-            state.selected = None;
-        }
-        ui.separator();
-    }
-    for i in 0..state.scene.lights.len() {
-        let light = &state.scene.lights[i];
-        ui.label(format!("Light: {} ({:?})", light.name, light.kind));
-        if let Some(intensity) = colour_and_amount(ui, light.intensity, "intensity", 0.0..=1e6) {
-            state.edit(|_, lights| lights[i].intensity = intensity);
-        }
-    }
-    if state.edited() && ui.button("Reset to file").clicked() {
-        state.reset_edits();
-    }
-}
-
-fn image(ui: &mut Ui, state: &mut ViewerState, ui_state: &mut UiState) {
-    let (rect, response) = ui.allocate_exact_size(ui.available_size(), Sense::click_and_drag());
-    let ppp = ui.ctx().pixels_per_point();
-    state.viewport =
-        UVec2::new((rect.width() * ppp).round().max(1.0) as u32, (rect.height() * ppp).round().max(1.0) as u32);
-    let aspect = state.aspect();
-    let size = if rect.width() / rect.height() > aspect {
-        egui::vec2(rect.height() * aspect, rect.height())
-    } else {
-        egui::vec2(rect.width(), rect.width() / aspect)
-    };
-    let shown = Rect::from_center_size(rect.center(), size);
-    if let Some(tex) = &ui_state.texture {
-        let uv = Rect::from_min_max(pos2(0.0, 0.0), pos2(1.0, 1.0));
-        ui.painter().image(tex.id(), shown, uv, Color32::WHITE);
-    }
-    let height = shown.height();
-    let delta = response.drag_delta();
-    let d = Vec2::new(delta.x, delta.y);
-    let shift = ui.input(|i| i.modifiers.shift);
-    let mut moved = false;
-    if response.dragged_by(PointerButton::Primary) && d != Vec2::ZERO {
-        if shift {
-            state.camera.pan(d, height)
-        } else {
-            state.camera.orbit(d, height)
-        }
-        moved = true;
-    } else if response.dragged_by(PointerButton::Middle) && d != Vec2::ZERO {
-        state.camera.pan(d, height);
-        moved = true;
-    } else if response.dragged_by(PointerButton::Secondary) && d != Vec2::ZERO {
-        state.camera.look(d, height);
-        moved = true;
-    }
-    if response.hovered() {
-        let scroll = ui.input(|i| i.smooth_scroll_delta.y);
-        if scroll != 0.0 {
-            state.camera.dolly(scroll / 50.0);
-            moved = true;
-        }
-    }
-    if !ui.ctx().egui_wants_keyboard_input() {
-        let (dt, keys) = ui.input(|i| {
-            let k = |key| if i.key_down(key) { 1.0 } else { 0.0 };
-            (i.stable_dt.min(0.1), Vec3::new(k(Key::D) - k(Key::A), k(Key::E) - k(Key::Q), k(Key::W) - k(Key::S)))
-        });
-        if keys != Vec3::ZERO {
-            state.camera.fly(keys, state.fly_speed * dt);
-            moved = true;
-        }
-    }
-    if response.clicked()
-        && let Some(p) = response.interact_pointer_pos().filter(|p| shown.contains(*p))
-    {
-        let uv = (p - shown.min) / shown.size();
-        state.selected = state.pick(Vec2::new(uv.x, uv.y));
-    }
-    let now = Instant::now();
-    if moved {
-        ui_state.last_input = Some(now);
-    }
-    let previewing = ui_state.last_input.is_some_and(|t| now - t < PREVIEW_HOLD);
-    state.preview = previewing;
-    if previewing {
-        ui.ctx().request_repaint_after(Duration::from_millis(16));
-    }
 }

@@ -1,0 +1,80 @@
+//! The central image: drawn to fit, with the camera's mouse and keyboard controls and
+//! click-to-select.
+
+use super::UiState;
+use crate::viewer::state::ViewerState;
+use egui::{Color32, Key, PointerButton, Rect, Sense, Ui, pos2};
+use glam::{UVec2, Vec2, Vec3};
+use std::time::{Duration, Instant};
+
+/// How long after the last camera input the full-resolution render resumes.
+const PREVIEW_HOLD: Duration = Duration::from_millis(200);
+
+pub(super) fn image(ui: &mut Ui, state: &mut ViewerState, ui_state: &mut UiState) {
+    let (rect, response) = ui.allocate_exact_size(ui.available_size(), Sense::click_and_drag());
+    let ppp = ui.ctx().pixels_per_point();
+    state.viewport =
+        UVec2::new((rect.width() * ppp).round().max(1.0) as u32, (rect.height() * ppp).round().max(1.0) as u32);
+    let aspect = state.aspect();
+    let size = if rect.width() / rect.height() > aspect {
+        egui::vec2(rect.height() * aspect, rect.height())
+    } else {
+        egui::vec2(rect.width(), rect.width() / aspect)
+    };
+    let shown = Rect::from_center_size(rect.center(), size);
+    if let Some(tex) = &ui_state.texture {
+        let uv = Rect::from_min_max(pos2(0.0, 0.0), pos2(1.0, 1.0));
+        ui.painter().image(tex.id(), shown, uv, Color32::WHITE);
+    }
+    let height = shown.height();
+    let delta = response.drag_delta();
+    let d = Vec2::new(delta.x, delta.y);
+    let shift = ui.input(|i| i.modifiers.shift);
+    let mut moved = false;
+    if response.dragged_by(PointerButton::Primary) && d != Vec2::ZERO {
+        if shift {
+            state.camera.pan(d, height)
+        } else {
+            state.camera.orbit(d, height)
+        }
+        moved = true;
+    } else if response.dragged_by(PointerButton::Middle) && d != Vec2::ZERO {
+        state.camera.pan(d, height);
+        moved = true;
+    } else if response.dragged_by(PointerButton::Secondary) && d != Vec2::ZERO {
+        state.camera.look(d, height);
+        moved = true;
+    }
+    if response.hovered() {
+        let scroll = ui.input(|i| i.smooth_scroll_delta.y);
+        if scroll != 0.0 {
+            state.camera.dolly(scroll / 50.0);
+            moved = true;
+        }
+    }
+    if !ui.ctx().egui_wants_keyboard_input() {
+        let (dt, keys) = ui.input(|i| {
+            let k = |key| if i.key_down(key) { 1.0 } else { 0.0 };
+            (i.stable_dt.min(0.1), Vec3::new(k(Key::D) - k(Key::A), k(Key::E) - k(Key::Q), k(Key::W) - k(Key::S)))
+        });
+        if keys != Vec3::ZERO {
+            state.camera.fly(keys, state.fly_speed * dt);
+            moved = true;
+        }
+    }
+    if response.clicked()
+        && let Some(p) = response.interact_pointer_pos().filter(|p| shown.contains(*p))
+    {
+        let uv = (p - shown.min) / shown.size();
+        state.selected = state.pick(Vec2::new(uv.x, uv.y));
+    }
+    let now = Instant::now();
+    if moved {
+        ui_state.last_input = Some(now);
+    }
+    let previewing = ui_state.last_input.is_some_and(|t| now - t < PREVIEW_HOLD);
+    state.preview = previewing;
+    if previewing {
+        ui.ctx().request_repaint_after(Duration::from_millis(16));
+    }
+}
