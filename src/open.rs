@@ -1,6 +1,8 @@
 //! The library's entry point: a scene from a glTF file (or the built-in Cornell box), lit
 //! by the environment asked for, ready to render. The command line and the viewer both
-//! open scenes here; progress is reported as data, warnings stay in `Scene::warnings`.
+//! open scenes here; progress is reported as data, warnings stay in `Scene::warnings`. A
+//! scene without light of its own is lit by the built-in sky unless asked to stay dark, as
+//! the Khronos glTF Sample Viewer lights every model with an image-based light.
 
 use crate::loader::{builtin, gltf};
 use crate::memory::Limits;
@@ -26,6 +28,9 @@ pub enum Stage {
 pub struct OpenOptions {
     /// What lights the scene from outside.
     pub environment: EnvSettings,
+    /// Leave a scene without light of its own dark (see [`Scene::has_own_light`]) instead of
+    /// lighting it with the built-in sky, as a black `environment` otherwise does.
+    pub keep_dark: bool,
     /// The memory loading and building may take (default: half the machine's); a file that
     /// would need more is refused before it is allocated ("scene too large: ...").
     pub limits: Limits,
@@ -46,6 +51,13 @@ pub fn open(path: Option<&Path>, options: &OpenOptions, progress: &mut dyn FnMut
         None => builtin::cornell_box(),
     };
     progress(Stage::Building);
-    let scene = Scene::build(desc);
+    let mut scene = Scene::build(desc);
+    if environment.is_none() && !options.keep_dark && !scene.has_own_light() {
+        scene.warnings.push(format!(
+            "{} has no light of its own: the built-in sky lights it (--env none keeps it dark)",
+            scene.name
+        ));
+        return Ok(scene.with_environment(Some(Environment::load(EnvSettings::built_in())?)));
+    }
     Ok(if environment.is_some() { scene.with_environment(environment) } else { scene })
 }

@@ -250,3 +250,24 @@ fn a_truncated_map_is_called_truncated_and_named() {
     assert_eq!(err, want);
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn a_scene_without_light_of_its_own_is_lit_by_the_built_in_sky_unless_kept_dark() {
+    use lucent::open::{OpenOptions, open};
+    let assets = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/assets");
+    let lit_by_sky = |path: Option<&std::path::Path>, keep_dark: bool| {
+        let scene = open(path, &OpenOptions { keep_dark, ..OpenOptions::default() }, &mut |_| {}).expect("opens");
+        let sky = scene.environment.as_ref().map(|e| e.settings.clone());
+        let said = scene.warnings.iter().any(|w| w.contains("no light of its own"));
+        assert_eq!(sky.is_some(), said, "the sky is added exactly when it is said");
+        sky.map(|s| assert_eq!(s, EnvSettings::built_in())).is_some()
+    };
+    let unlit = assets.join("Box/glTF-Binary/Box.glb");
+    assert!(lit_by_sky(Some(&unlit), false), "a model without lights gets the sky");
+    assert!(!lit_by_sky(Some(&unlit), true), "unless asked to stay dark");
+    assert!(!lit_by_sky(None, false), "the Cornell box's lamp is a light of its own");
+    let lamp = assets.join("LightsPunctualLamp/glTF/LightsPunctualLamp.gltf");
+    assert!(!lit_by_sky(Some(&lamp), false), "punctual lights are lights of its own");
+    let emissive = assets.join("EmissiveStrengthTest/glTF-Binary/EmissiveStrengthTest.glb");
+    assert!(!lit_by_sky(Some(&emissive), false), "untextured emission is a lamp");
+}

@@ -128,9 +128,34 @@ fn picking_finds_the_material_under_the_cursor_and_preview_lowers_the_resolution
     assert_eq!(name(state.pick(glam::Vec2::new(0.5, 0.14))).as_deref(), Some("light"));
     assert_eq!(name(state.pick(glam::Vec2::new(0.05, 0.5))).as_deref(), Some("red"));
     assert_eq!(name(state.pick(glam::Vec2::new(0.95, 0.5))).as_deref(), Some("green"));
-    state.preview = true;
+    state.moving = true;
     let s = state.effective_settings();
     assert!(s.width < 48 && s.height < 48 && s.target_spp.is_none());
+}
+
+#[test]
+fn after_a_camera_move_the_preview_sharpens_one_level_per_image() {
+    let mut state = viewer();
+    state.moving = true;
+    state.camera.orbit(glam::Vec2::new(5.0, 0.0), 48.0);
+    assert!(state.sync());
+    state.moving = false;
+    let mut widths = vec![state.effective_settings().width];
+    for _ in 0..50 {
+        let snap = state.wait_for_update(None, Duration::from_secs(10)).expect("an image within 10 s");
+        assert_eq!(snap.width, *widths.last().unwrap(), "the image is of the level being rendered");
+        state.snapshot();
+        state.sync();
+        let width = state.effective_settings().width;
+        if width == 48 {
+            widths.push(width);
+            break;
+        }
+        if width != *widths.last().unwrap() {
+            widths.push(width);
+        }
+    }
+    assert_eq!(widths, [6, 12, 24, 48], "1/8, 1/4, 1/2, then full resolution");
 }
 
 #[test]

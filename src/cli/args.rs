@@ -223,8 +223,10 @@ pub struct RenderOptions {
     #[arg(long, value_enum, value_delimiter = ',')]
     pub without: Vec<Mechanism>,
     /// Equirectangular environment map (.hdr or .exr) lighting the scene from outside
-    /// (+y up; the map's centre is seen looking along -z), or `built-in` for the sunset sky
-    /// embedded in the binary (Poly Haven's venice_sunset, 1024x512, CC0).
+    /// (+y up; the map's centre is seen looking along -z), `built-in` for the sunset sky
+    /// embedded in the binary (Poly Haven's venice_sunset, 1024x512, CC0), or `none`. A
+    /// scene without light of its own is lit by the built-in sky unless given `none`, a
+    /// --background or a --view.
     #[arg(long)]
     pub env: Option<PathBuf>,
     /// Scale on the environment's radiance [default: 1].
@@ -275,7 +277,7 @@ impl RenderOptions {
         }
         let environment = &mut view.environment;
         if let Some(map) = &self.env {
-            environment.map = Some(map.clone());
+            environment.map = (map.as_os_str() != NO_MAP).then(|| map.clone());
         }
         environment.intensity = self.env_intensity.unwrap_or(environment.intensity);
         environment.rotation = self.env_rotation.unwrap_or(environment.rotation);
@@ -289,12 +291,21 @@ impl RenderOptions {
         Ok(view)
     }
 
+    /// Whether a scene without light of its own stays dark: the environment was chosen
+    /// (`--env none`, a background, or a view file), rather than left to the default.
+    pub fn keeps_dark(&self) -> bool {
+        self.env.as_ref().is_some_and(|m| m.as_os_str() == NO_MAP) || self.background.is_some() || self.view.is_some()
+    }
+
     /// Whether the image size is fixed (given, or from a view file) rather than following
     /// the viewer's window.
     pub fn fixed_size(&self) -> bool {
         self.params.given("width") || self.params.given("height") || self.view.is_some()
     }
 }
+
+/// The `--env` value that asks for no map.
+const NO_MAP: &str = "none";
 
 /// `lucent render`.
 #[derive(Args, Debug)]

@@ -83,12 +83,21 @@ pub fn run(args: &FarmSlurmArgs) -> Result<(), String> {
     }
     let scene = super::render::open_scene(
         args.scene.as_deref(),
-        &OpenOptions { environment: view.environment.clone(), ..OpenOptions::default() },
+        &OpenOptions {
+            environment: view.environment.clone(),
+            keep_dark: args.options.keeps_dark(),
+            ..OpenOptions::default()
+        },
     )?;
     view.camera = Some(match args.options.camera {
         Some(i) => scene.file_camera(i).map_err(|e| format!("--{e}"))?,
         None => view.camera.unwrap_or_else(|| scene.default_camera(s.width as f32 / s.height as f32)),
     });
+    // The pieces render from the view file, so it names the sky a scene without light of
+    // its own was given.
+    if let Some(env) = &scene.environment {
+        view.environment = env.settings.clone();
+    }
     if let Some(map) = &view.environment.map
         && map.as_os_str() != "built-in"
     {

@@ -51,6 +51,7 @@ pub fn launch(args: &args::ViewArgs) -> Result<Launch, String> {
         view,
         file_camera: args.options.camera,
         fixed_size: args.options.fixed_size(),
+        keep_dark: args.options.keeps_dark(),
         threads: args.options.threads,
         screenshot: args.screenshot.clone(),
     })

@@ -63,7 +63,11 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     }
     let scene = Arc::new(open_scene(
         args.scene.as_deref(),
-        &OpenOptions { environment: view.environment.clone(), ..OpenOptions::default() },
+        &OpenOptions {
+            environment: view.environment.clone(),
+            keep_dark: args.options.keeps_dark(),
+            ..OpenOptions::default()
+        },
     )?);
     let camera = match args.options.camera {
         Some(i) => scene.file_camera(i).map_err(|e| format!("--{e}"))?,

@@ -9,12 +9,13 @@ use serde::{Deserialize, Serialize};
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Tonemap {
-    /// Clamp to [0, 1]: radiometrically faithful below 1.
-    #[default]
+    /// Clamp to [0, 1]: radiometrically faithful below 1, clips highlights.
     Linear,
     /// Narkowicz's fit of the ACES filmic curve (2015).
     Aces,
-    /// Khronos PBR Neutral (2024): keeps base colours faithful, compresses highlights.
+    /// Khronos PBR Neutral (2024): keeps base colours faithful, compresses highlights
+    /// instead of clipping them. The default, as in the Khronos glTF Sample Viewer.
+    #[default]
     PbrNeutral,
 }
 
@@ -76,7 +77,7 @@ crate::params! {
         /// Exposure in stops for display and PNG output (radiance is scaled by 2^exposure).
         exposure: f32 = 0.0, ["exposure", "exposure (EV)", Display, Domain::Float { min: -20.0, max: 20.0, optional: false }, |_| true],
         /// Tone curve for display and PNG output.
-        tonemap: Tonemap = Tonemap::Linear, ["tonemap", "tone curve", Display, Domain::Choice(Tonemap::CHOICES), |_| true],
+        tonemap: Tonemap = Tonemap::PbrNeutral, ["tonemap", "tone curve", Display, Domain::Choice(Tonemap::CHOICES), |_| true],
     }
 }
 
@@ -96,7 +97,7 @@ mod tests {
 
     #[test]
     fn encodes_black_white_and_mid_grey() {
-        let d = Display::default();
+        let d = Display { tonemap: Tonemap::Linear, ..Display::default() };
         assert_eq!(d.to_srgb8(Vec3::ZERO), [0, 0, 0]);
         assert_eq!(d.to_srgb8(Vec3::ONE), [255, 255, 255]);
         assert_eq!(d.to_srgb8(Vec3::splat(0.2158605)), [128, 128, 128]);

@@ -47,6 +47,11 @@ impl EnvSettings {
         Ok(())
     }
 
+    /// The built-in sky at its own intensity, unrotated.
+    pub fn built_in() -> Self {
+        Self { map: Some(BUILT_IN.into()), ..Self::default() }
+    }
+
     /// Whether this lights nothing (no map, black background, or zero intensity).
     pub fn is_black(&self) -> bool {
         self.intensity == 0.0 || (self.map.is_none() && self.background == Vec3::ZERO)

@@ -324,6 +324,18 @@ impl Scene {
         scene
     }
 
+    /// Whether the scene lights itself: a punctual light, or an emissive surface whose
+    /// emission is not textured (a lamp). Emissive textures (screens, indicator lights, a
+    /// helmet's visor) decorate a model more than they light it, so a model with only
+    /// those counts as unlit.
+    pub fn has_own_light(&self) -> bool {
+        let lamp = |m: &Material| m.is_emissive() && m.emissive_tex.is_none();
+        !self.lights.is_empty()
+            || (self.materials.iter().any(lamp)
+                && (0..self.geometry.len() as u32)
+                    .any(|t| lamp(&self.materials[self.geometry.attrs(t).material as usize])))
+    }
+
     /// Rebuilds the light sampler and the feature set from the materials and lights.
     fn update_lighting(&mut self) {
         let (geometry, materials) = (&self.geometry, &self.materials);

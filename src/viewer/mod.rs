@@ -41,6 +41,8 @@ pub struct Launch {
     pub view: ViewFile,
     /// Look through the file's camera with this index instead of `view.camera`.
     pub file_camera: Option<usize>,
+    /// Leave a scene without light of its own dark instead of lighting it with the built-in sky.
+    pub keep_dark: bool,
     /// Render at the view's size instead of following the window.
     pub fixed_size: bool,
     /// Worker threads (None: one per core).
@@ -52,13 +54,13 @@ pub struct Launch {
 /// Opens the viewer (on a folder of pieces: their merge as they arrive); with a screenshot
 /// path, renders to the target spp, saves and exits.
 pub fn run(launch: Launch) -> Result<(), String> {
-    let Launch { scene: path, view, file_camera, fixed_size, threads, screenshot } = launch;
+    let Launch { scene: path, view, file_camera, fixed_size, keep_dark, threads, screenshot } = launch;
     if let Some(dir) = path.as_ref().filter(|p| p.is_dir()) {
         return pieces::run(dir.clone(), screenshot.zip(view.settings.target_spp));
     }
     let scene = open(
         path.as_deref(),
-        &OpenOptions { environment: view.environment.clone(), ..OpenOptions::default() },
+        &OpenOptions { environment: view.environment.clone(), keep_dark, ..OpenOptions::default() },
         &mut |_| {},
     )?;
     for w in &scene.warnings {

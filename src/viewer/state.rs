@@ -24,8 +24,11 @@ use std::sync::mpsc::{Receiver, TryRecvError};
 use std::sync::{Arc, atomic::AtomicBool, atomic::Ordering};
 use std::time::{Duration, Instant};
 
-/// Divisor of the resolution while the camera moves (a quick preview that keeps up).
-const PREVIEW_DIVISOR: u32 = 4;
+/// Divisor of the resolution while the camera moves: a pass at 1/64 of the pixels shows a
+/// first image within a frame. Once the camera stops, each level's first image halves
+/// the divisor (1/8, 1/4, 1/2, full), so the view sharpens in steps that cost together a
+/// third of one full-resolution pass.
+const COARSEST: u32 = 8;
 
 /// A scene being loaded on its own thread.
 struct Loading {
@@ -75,8 +78,10 @@ pub struct ViewerState {
     pub camera: CameraController,
     /// Fly speed in scene units per second.
     pub fly_speed: f32,
-    /// Render a low-resolution preview (set while the camera moves).
-    pub preview: bool,
+    /// The camera is moving: render the coarsest preview (set by the UI).
+    pub moving: bool,
+    /// Divisor of the resolution now (1: full resolution; see `COARSEST`).
+    divisor: u32,
     /// Workers paused.
     pub paused: bool,
     /// Selected material, if any.
@@ -154,7 +159,8 @@ impl ViewerState {
             display,
             camera: controller,
             fly_speed,
-            preview: false,
+            moving: false,
+            divisor: 1,
             paused: false,
             selected: None,
             error: None,
@@ -188,12 +194,14 @@ impl ViewerState {
         s
     }
 
-    /// The settings actually rendered: full resolution, reduced while previewing.
+    /// The settings actually rendered: full resolution, or reduced while the camera moves
+    /// and while the preview sharpens after it stopped.
     pub fn effective_settings(&self) -> Settings {
         let mut s = self.effective_settings_full();
-        if self.preview {
-            s.width = s.width.div_ceil(PREVIEW_DIVISOR);
-            s.height = s.height.div_ceil(PREVIEW_DIVISOR);
+        let divisor = if self.moving { COARSEST } else { self.divisor };
+        if divisor > 1 {
+            s.width = s.width.div_ceil(divisor);
+            s.height = s.height.div_ceil(divisor);
             s.target_spp = None;
         }
         s
@@ -203,6 +211,9 @@ impl ViewerState {
     /// (restarting accumulation), and applies pause. Returns whether it restarted.
     pub fn sync(&mut self) -> bool {
         self.session.set_paused(self.paused);
+        if self.moving {
+            self.divisor = COARSEST;
+        }
         let want = JobKey {
             scene: Arc::clone(&self.scene),
             camera: self.camera.camera(),
@@ -232,13 +243,18 @@ impl ViewerState {
         self.session.generation()
     }
 
-    /// The latest image of the current job, if one pass has completed.
+    /// The latest image of the current job, if one pass has completed. The first image of
+    /// a preview level, once the camera stopped, moves on to the next finer level (at the
+    /// next `sync`).
     pub fn snapshot(&mut self) -> Option<Arc<Snapshot>> {
         let snap = self.session.snapshot();
         if snap.is_some() && self.awaiting_first_image {
             self.awaiting_first_image = false;
             let preview = self.sent.settings.width < self.effective_settings_full().width;
             self.latencies.push((self.restarted.elapsed(), preview));
+        }
+        if snap.is_some() && !self.moving && self.divisor > 1 && self.sent.settings == self.effective_settings() {
+            self.divisor /= 2;
         }
         snap
     }
@@ -282,10 +298,13 @@ impl ViewerState {
         self.loading = None;
         match result {
             Ok(scene) => {
+                // An environment the user chose lights the new scene too; the default sky of
+                // a scene without light of its own does not (the new one may have lights).
                 let scene = match &self.scene.environment {
-                    Some(env) => scene.with_environment(Some(env.clone())),
-                    None => scene,
+                    Some(env) if !self.lit_by_default() => scene.with_environment(Some(env.clone())),
+                    _ => scene,
                 };
+                self.environment = scene.environment.as_ref().map_or_else(EnvSettings::default, |e| e.settings.clone());
                 let scene = Arc::new(scene);
                 let aspect = self.aspect();
                 self.camera = controller_for(&scene, None, aspect);
@@ -299,6 +318,12 @@ impl ViewerState {
             Err(e) => self.error = Some(e),
         }
         true
+    }
+
+    /// Whether the built-in sky lights the scene because it has no light of its own (and
+    /// the user has not chosen another environment).
+    pub fn lit_by_default(&self) -> bool {
+        self.environment == EnvSettings::built_in() && !self.scene.has_own_light()
     }
 
     /// Aspect ratio of the rendered image.

@@ -73,7 +73,7 @@ pub(super) fn image(ui: &mut Ui, state: &mut ViewerState, ui_state: &mut UiState
         ui_state.last_input = Some(now);
     }
     let previewing = ui_state.last_input.is_some_and(|t| now - t < PREVIEW_HOLD);
-    state.preview = previewing;
+    state.moving = previewing;
     if previewing {
         ui.ctx().request_repaint_after(Duration::from_millis(16));
     }
