@@ -159,6 +159,21 @@ fn after_a_camera_move_the_preview_sharpens_one_level_per_image() {
 }
 
 #[test]
+fn screenshots_go_beside_the_scene_or_to_the_pictures_folder() {
+    use lucent::viewer::state::default_screenshot_dir;
+    let dir = temp_dir("shots");
+    assert_eq!(default_screenshot_dir(Some(&dir.join("scene.gltf"))), dir, "a writable scene folder");
+    let elsewhere = default_screenshot_dir(Some(&dir.join("missing/scene.gltf")));
+    assert!(elsewhere.ends_with("Lucent") || elsewhere == Path::new("."), "{}", elsewhere.display());
+    assert_eq!(default_screenshot_dir(None), elsewhere, "the built-in scene has no folder");
+    let mut state = viewer();
+    state.screenshot_dir = dir.join("new/folder").to_string_lossy().into_owned();
+    let _ = state.wait_for_update(None, Duration::from_secs(10)).expect("an image");
+    let png = state.screenshot().expect("saved");
+    assert!(png.starts_with(dir.join("new/folder")) && png.exists() && png.with_extension("exr").exists());
+}
+
+#[test]
 fn views_save_and_load() {
     let mut state = viewer();
     state.view_path = temp_dir("view").join("v.toml").to_string_lossy().into_owned();

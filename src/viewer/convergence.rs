@@ -13,6 +13,8 @@ const KEPT: usize = 4;
 /// One job's estimated relative error against time.
 #[derive(Clone, Debug)]
 pub struct Curve {
+    /// Its number, counted from 1 since the scene was opened (never renumbered).
+    pub number: u32,
     /// What rendered it (estimator and sampler).
     pub label: String,
     /// (seconds, mean relative standard error) per image.
@@ -23,6 +25,8 @@ pub struct Curve {
 #[derive(Default)]
 pub struct ConvergenceLog {
     generation: Option<u64>,
+    /// Curves started so far.
+    started: u32,
     /// The job being rendered.
     pub current: Option<Curve>,
     /// Earlier jobs, oldest first.
@@ -41,13 +45,19 @@ impl ConvergenceLog {
                 }
             }
             self.generation = Some(snap.generation);
-            self.current = Some(Curve { label: label.into(), points: Vec::new() });
+            self.started += 1;
+            self.current = Some(Curve { number: self.started, label: label.into(), points: Vec::new() });
         }
         let (Some(curve), Some(error)) = (self.current.as_mut(), snap.relative_error()) else { return };
         let t = snap.elapsed.as_secs_f64();
         if error > 0.0 && error.is_finite() && t > 0.0 && curve.points.last().is_none_or(|p| p[0] < t) {
             curve.points.push([t, error]);
         }
+    }
+
+    /// Forgets every curve (another scene's errors are not comparable).
+    pub fn clear(&mut self) {
+        *self = Self::default();
     }
 
     /// Seconds of rendering still needed for the error to reach `target`, if the error

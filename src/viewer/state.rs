@@ -96,7 +96,7 @@ pub struct ViewerState {
     pub show_error: bool,
     /// The last notice (where a screenshot went, ...).
     pub message: Option<String>,
-    /// Folder for screenshots.
+    /// Folder for screenshots (by default beside the scene, see `default_screenshot_dir`).
     pub screenshot_dir: String,
     /// Path typed in the open field.
     pub open_path: String,
@@ -138,6 +138,7 @@ impl ViewerState {
         let sent = JobKey { scene: Arc::clone(&scene), camera: controller.camera(), settings };
         let job = Job { scene: Arc::clone(&scene), camera: sent.camera, settings, window: None };
         let session = RenderSession::new_yielding(job, threads).map_err(|e| e.to_string())?;
+        let screenshot_dir = default_screenshot_dir(source.as_deref()).to_string_lossy().into_owned();
         let fly_speed = 0.25 * scene.radius().max(1e-3);
         let environment = scene.environment.as_ref().map_or_else(EnvSettings::default, |e| e.settings.clone());
         let environment_map =
@@ -168,7 +169,7 @@ impl ViewerState {
             convergence: ConvergenceLog::default(),
             show_error: false,
             message: None,
-            screenshot_dir: ".".into(),
+            screenshot_dir,
             open_path: String::new(),
             view_path: "view.toml".into(),
             environment,
@@ -311,8 +312,12 @@ impl ViewerState {
                 self.fly_speed = 0.25 * scene.radius().max(1e-3);
                 self.original = (scene.materials.clone(), scene.lights.clone());
                 self.message = (!scene.warnings.is_empty()).then(|| scene.warnings.join("; "));
+                if Path::new(&self.screenshot_dir) == default_screenshot_dir(self.source.as_deref()) {
+                    self.screenshot_dir = default_screenshot_dir(Some(&path)).to_string_lossy().into_owned();
+                }
                 self.scene = scene;
                 self.source = Some(path);
+                self.convergence.clear();
                 self.selected = None;
             }
             Err(e) => self.error = Some(e),
@@ -466,7 +471,9 @@ impl ViewerState {
     pub fn screenshot(&mut self) -> Result<PathBuf, String> {
         let snap = self.snapshot().ok_or("nothing rendered yet")?;
         let name = format!("{}-{}spp.png", self.scene.name, snap.spp);
-        let path = Path::new(&self.screenshot_dir).join(name);
+        let dir = Path::new(&self.screenshot_dir);
+        std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+        let path = dir.join(name);
         self.save_images(&snap, &path)?;
         Ok(path)
     }
@@ -501,6 +508,25 @@ impl ViewerState {
         self.display = view.display;
         self.set_environment(view.environment)
     }
+}
+
+/// Where screenshots go unless the user chooses: the scene's folder if it is writable,
+/// else the user's pictures folder (XDG's, or ~/Pictures; its `Lucent` subfolder), else the
+/// current folder.
+pub fn default_screenshot_dir(scene: Option<&Path>) -> PathBuf {
+    let writable = |dir: &Path| {
+        let probe = dir.join(format!(".lucent-probe-{}", std::process::id()));
+        std::fs::write(&probe, b"").and_then(|()| std::fs::remove_file(&probe)).is_ok()
+    };
+    scene
+        .and_then(Path::parent)
+        .map(|d| if d.as_os_str().is_empty() { Path::new(".") } else { d })
+        .filter(|d| writable(d))
+        .map(Path::to_path_buf)
+        .or_else(|| {
+            dirs::picture_dir().or_else(|| dirs::home_dir().map(|h| h.join("Pictures"))).map(|d| d.join("Lucent"))
+        })
+        .unwrap_or_else(|| PathBuf::from("."))
 }
 
 /// The maps to offer: the built-in sky, `startup` (if any), then the .hdr and .exr files in

@@ -42,8 +42,10 @@ impl UiState {
 
 /// Draws one frame of UI and applies what the user did to `state`.
 pub fn draw(ui: &mut Ui, state: &mut ViewerState, ui_state: &mut UiState) {
-    egui::Panel::left("controls").resizable(true).default_size(300.0).show(ui, |ui| {
-        egui::ScrollArea::vertical().show(ui, |ui| controls(ui, state, ui_state));
+    // The panel's width changes only when the user drags its edge: content wraps or is
+    // cut, and the scroll bar floats over it, so the image (and its resolution) stays put.
+    egui::Panel::left("controls").resizable(true).default_size(330.0).size_range(260.0..=520.0).show(ui, |ui| {
+        egui::ScrollArea::vertical().auto_shrink([false; 2]).show(ui, |ui| controls(ui, state, ui_state));
     });
     if state.selected.is_some() || !state.scene.lights.is_empty() {
         egui::Panel::right("editors").resizable(true).default_size(260.0).show(ui, |ui| {
@@ -51,10 +53,43 @@ pub fn draw(ui: &mut Ui, state: &mut ViewerState, ui_state: &mut UiState) {
         });
     }
     egui::CentralPanel::no_frame().show(ui, |ui| image::image(ui, state, ui_state));
+    notices(ui, state);
     if ui.input(|i| i.key_pressed(Key::F12)) {
         screenshot(state);
     }
     ui_state.quit |= ui.input(|i| i.modifiers.command && i.key_pressed(Key::Q));
+}
+
+/// The last error and the last message, over the bottom of the image (wherever the
+/// panels are scrolled), each until dismissed.
+fn notices(ui: &mut Ui, state: &mut ViewerState) {
+    if state.error.is_none() && state.message.is_none() {
+        return;
+    }
+    egui::Area::new(egui::Id::unique("notices")).anchor(egui::Align2::CENTER_BOTTOM, [0.0, -12.0]).show(
+        ui.ctx(),
+        |ui| {
+            egui::Frame::popup(ui.style()).show(ui, |ui| {
+                ui.set_max_width(640.0);
+                if let Some(e) = state.error.clone() {
+                    ui.horizontal_wrapped(|ui| {
+                        ui.colored_label(Color32::from_rgb(255, 90, 90), e);
+                        if ui.small_button("dismiss").clicked() {
+                            state.error = None;
+                        }
+                    });
+                }
+                if let Some(m) = state.message.clone() {
+                    ui.horizontal_wrapped(|ui| {
+                        ui.label(m);
+                        if ui.small_button("ok").clicked() {
+                            state.message = None;
+                        }
+                    });
+                }
+            });
+        },
+    );
 }
 
 fn screenshot(state: &mut ViewerState) {
@@ -101,22 +136,6 @@ fn controls(ui: &mut Ui, state: &mut ViewerState, ui_state: &mut UiState) {
             screenshot(state);
         }
     });
-    if let Some(e) = state.error.clone() {
-        ui.horizontal_wrapped(|ui| {
-            ui.colored_label(Color32::from_rgb(255, 90, 90), e);
-            if ui.small_button("dismiss").clicked() {
-                state.error = None;
-            }
-        });
-    }
-    if let Some(m) = state.message.clone() {
-        ui.horizontal_wrapped(|ui| {
-            ui.label(m);
-            if ui.small_button("ok").clicked() {
-                state.message = None;
-            }
-        });
-    }
     ui.separator();
     egui::CollapsingHeader::new("Estimator").default_open(true).show(ui, |ui| estimator(ui, state));
     egui::CollapsingHeader::new("Display").default_open(true).show(ui, |ui| {
@@ -162,36 +181,43 @@ fn estimator(ui: &mut Ui, state: &mut ViewerState) {
 fn convergence(ui: &mut Ui, state: &mut ViewerState, ui_state: &mut UiState) {
     let log = &state.convergence;
     let to_log = |points: &[[f64; 2]]| points.iter().map(|p| [p[0].log10(), p[1].log10()]).collect::<Vec<_>>();
-    let power_of_ten = |mark: GridMark, _: &std::ops::RangeInclusive<f64>| format!("{:.3}", 10f64.powf(mark.value));
+    let power_of_ten = |mark: GridMark, _: &std::ops::RangeInclusive<f64>| significant(10f64.powf(mark.value));
     Plot::new("convergence")
         .height(150.0)
         .legend(Legend::default())
-        .x_axis_label("seconds")
+        .x_axis_label("render time (s)")
         .y_axis_label("rel. error")
+        .y_axis_min_width(44.0)
         .x_axis_formatter(power_of_ten)
         .y_axis_formatter(power_of_ten)
         .x_grid_spacer(log_grid_spacer(10))
         .y_grid_spacer(log_grid_spacer(10))
         .allow_scroll(false)
         .show(ui, |plot| {
-            for (k, c) in log.previous.iter().enumerate() {
-                plot.line(Line::new(format!("{} #{}", c.label, k + 1), to_log(&c.points)).width(1.0));
+            for c in &log.previous {
+                plot.line(Line::new(format!("#{} {}", c.number, c.label), to_log(&c.points)).width(1.0));
             }
             if let Some(c) = &log.current {
-                plot.line(Line::new(format!("{} (now)", c.label), to_log(&c.points)).width(2.5));
+                plot.line(Line::new(format!("#{} {} (now)", c.number, c.label), to_log(&c.points)).width(2.5));
             }
         });
     ui.horizontal(|ui| {
-        ui.label("target");
+        ui.label("target error");
         ui.add(egui::DragValue::new(&mut ui_state.target_error_percent).range(0.01..=100.0).speed(0.05).suffix(" %"));
-        let text = match log.time_to(ui_state.target_error_percent / 100.0) {
-            Some(0.0) => "reached".to_string(),
-            Some(t) => format!("about {t:.0} s more at this rate (error ~ time^-1/2)"),
-            None => "-".to_string(),
-        };
-        ui.label(text);
+    });
+    ui.label(match log.time_to(ui_state.target_error_percent / 100.0) {
+        Some(0.0) => "reached".to_string(),
+        Some(t) => format!("about {t:.0} s more at this rate (error ~ time^-1/2)"),
+        None => "-".to_string(),
     });
     ui.checkbox(&mut state.show_error, "show per-pixel error (false colour, 0.1% dark to 100% bright)");
+}
+
+/// A tick value with three significant digits and no trailing zeros ("0.025", "10", "1.5").
+fn significant(v: f64) -> String {
+    let decimals = (2 - v.abs().log10().floor() as i32).clamp(0, 6) as usize;
+    let text = format!("{v:.decimals$}");
+    if text.contains('.') { text.trim_end_matches('0').trim_end_matches('.').to_string() } else { text }
 }
 
 fn camera(ui: &mut Ui, state: &mut ViewerState) {
@@ -229,23 +255,25 @@ fn environment(ui: &mut Ui, state: &mut ViewerState) {
         Some(n) => n.to_string_lossy().into_owned(),
         None => p.display().to_string(),
     };
-    let shown = env.map.as_deref().map_or("none: background colour".into(), name);
+    if state.lit_by_default() {
+        ui.label("The scene has no light of its own, so the built-in sky lights it. Choose \"none\" for darkness.");
+    }
+    let shown = env.map.as_deref().map_or("none (uniform background)".into(), name);
     egui::ComboBox::from_label("map").selected_text(shown).show_ui(ui, |ui| {
-        ui.selectable_value(&mut env.map, None, "none: background colour");
+        ui.selectable_value(&mut env.map, None, "none (uniform background)");
         for path in &state.environment_maps {
             ui.selectable_value(&mut env.map, Some(path.clone()), name(path)).on_hover_text(path.display().to_string());
         }
     });
     let mut dir = state.environment_dir().to_owned();
-    ui.horizontal(|ui| {
-        ui.label("folder");
-        ui.text_edit_singleline(&mut dir).on_hover_text("its .hdr and .exr files are offered in the map list");
-    });
+    ui.label("folder of maps (its .hdr and .exr files are offered in the list)");
+    ui.add(egui::TextEdit::singleline(&mut dir).desired_width(f32::INFINITY));
     state.set_environment_dir(dir);
-    if env.map.is_none()
-        && let Some(b) = colour_and_amount(ui, env.background, "background", 0.0..=100.0)
-    {
-        env.background = b;
+    if env.map.is_none() {
+        ui.label("background: colour x radiance (0: black)");
+        if let Some(b) = colour_and_amount(ui, env.background, "radiance", 0.0..=100.0) {
+            env.background = b;
+        }
     }
     ui.add(egui::Slider::new(&mut env.intensity, 0.0..=100.0).logarithmic(true).text("intensity"));
     ui.add(egui::Slider::new(&mut env.rotation, -180.0..=180.0).suffix("°").text("rotation"));
@@ -256,24 +284,23 @@ fn environment(ui: &mut Ui, state: &mut ViewerState) {
 
 fn files(ui: &mut Ui, state: &mut ViewerState) {
     ui.label("open a .gltf/.glb (or drop it on the window)");
-    ui.horizontal(|ui| {
-        ui.text_edit_singleline(&mut state.open_path);
-        if ui.button("Open").clicked() && !state.open_path.trim().is_empty() {
-            let path = state.open_path.trim().into();
-            state.open(path);
-        }
-    });
+    ui.add(egui::TextEdit::singleline(&mut state.open_path).desired_width(f32::INFINITY));
+    if ui.button("Open").clicked() && !state.open_path.trim().is_empty() {
+        let path = state.open_path.trim().into();
+        state.open(path);
+    }
     if let Some(status) = state.loading_status() {
         ui.horizontal(|ui| {
             ui.spinner();
-            ui.label(status);
+            ui.label("loading");
         });
+        ui.label(status);
     }
-    ui.label("screenshot folder");
-    ui.text_edit_singleline(&mut state.screenshot_dir);
+    ui.label("screenshots (F12) go to this folder:");
+    ui.add(egui::TextEdit::singleline(&mut state.screenshot_dir).desired_width(f32::INFINITY));
     ui.label("view file (camera + settings)");
+    ui.add(egui::TextEdit::singleline(&mut state.view_path).desired_width(f32::INFINITY));
     ui.horizontal(|ui| {
-        ui.text_edit_singleline(&mut state.view_path);
         if ui.button("Save").clicked() {
             match state.save_view() {
                 Ok(()) => state.message = Some(format!("saved {}", state.view_path)),
