@@ -142,20 +142,22 @@ impl App {
         }
     }
 
-    /// UI frame time and restart latencies over the whole session, one line.
+    /// UI frame time and restart latencies over the whole session, one line: the median
+    /// time from a restart to its first image at each preview level and at full resolution.
     fn summary(&self) -> String {
-        let median = |preview: bool| {
+        let median = |divisor: u32| {
             let mut ms: Vec<f64> =
-                self.state.latencies.iter().filter(|l| l.1 == preview).map(|l| l.0.as_secs_f64() * 1e3).collect();
+                self.state.latencies.iter().filter(|l| l.1 == divisor).map(|l| l.0.as_secs_f64() * 1e3).collect();
             ms.sort_by(f64::total_cmp);
-            ms.get(ms.len() / 2).map_or("-".into(), |m| format!("median {m:.0} ms over {}", ms.len()))
+            let level = if divisor == 1 { "full".to_string() } else { format!("1/{divisor}") };
+            ms.get(ms.len() / 2).map(|m| format!("{level} {m:.0} ms (median of {})", ms.len()))
         };
+        let levels: Vec<String> = [8, 4, 2, 1].into_iter().filter_map(median).collect();
         format!(
-            "viewer: {} UI frames, mean {:.1} ms; restart to first image: preview {}, full resolution {}",
+            "viewer: {} UI frames, mean {:.1} ms; restart to first image: {}",
             self.frames,
             self.frame_time.as_secs_f64() * 1e3 / self.frames.max(1) as f64,
-            median(true),
-            median(false)
+            if levels.is_empty() { "-".to_string() } else { levels.join(", ") }
         )
     }
 

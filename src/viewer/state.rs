@@ -115,8 +115,9 @@ pub struct ViewerState {
     environment_map: Option<(PathBuf, Arc<EnvMap>)>,
     loading: Option<Loading>,
     restarted: Instant,
-    /// Times from a restart to the first image of the new job, and whether it was a preview.
-    pub latencies: Vec<(Duration, bool)>,
+    /// Times from a restart to the first image of the new job, and the job's resolution
+    /// divisor (1: full resolution).
+    pub latencies: Vec<(Duration, u32)>,
     awaiting_first_image: bool,
     ids: Option<IdBuffer>,
 }
@@ -251,8 +252,8 @@ impl ViewerState {
         let snap = self.session.snapshot();
         if snap.is_some() && self.awaiting_first_image {
             self.awaiting_first_image = false;
-            let preview = self.sent.settings.width < self.effective_settings_full().width;
-            self.latencies.push((self.restarted.elapsed(), preview));
+            let divisor = self.effective_settings_full().width / self.sent.settings.width.max(1);
+            self.latencies.push((self.restarted.elapsed(), divisor.next_power_of_two()));
         }
         if snap.is_some() && !self.moving && self.divisor > 1 && self.sent.settings == self.effective_settings() {
             self.divisor /= 2;
