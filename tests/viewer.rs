@@ -205,6 +205,31 @@ fn the_built_in_map_lights_the_scene_and_is_kept_while_tuning() {
     assert!(!state.scene.features.environment, "a black environment costs nothing");
 }
 
+#[cfg(feature = "denoise")]
+#[test]
+fn the_denoise_toggle_shows_a_denoised_image_and_leaves_the_accumulation_alone() {
+    let mut state = viewer();
+    state.denoiser.enabled = true;
+    let start = Instant::now();
+    let (snap, image) = loop {
+        assert!(start.elapsed() < Duration::from_secs(60), "no denoised image");
+        state.poll_denoiser();
+        if let Some(snap) = state.snapshot()
+            && let Some(d) = state.denoiser.shown(&snap)
+        {
+            break (Arc::clone(&d.source), d.image.clone());
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    };
+    assert!(state.denoiser.status().starts_with(&format!("denoised at {} spp in ", snap.spp)));
+    assert!(snap.aovs.is_some() && image != snap.mean, "denoised from the snapshot's image and AOVs");
+    let later = state.wait_for_update(Some(&snap), Duration::from_secs(30)).expect("still rendering");
+    assert!(later.spp > snap.spp && later.generation == snap.generation, "the accumulation went on, unrestarted");
+    let rgba = state.display_rgba(&snap);
+    let shown = lucent::film::tonemap::Display::default().to_srgb8(image[0]);
+    assert_eq!(rgba[0][..3], shown, "the window shows the denoised image");
+}
+
 fn xvfb_run() -> Option<PathBuf> {
     std::env::var_os("PATH")?.to_str()?.split(':').map(|d| Path::new(d).join("xvfb-run")).find(|p| p.exists())
 }

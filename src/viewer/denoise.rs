@@ -187,3 +187,55 @@ impl Denoiser {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn snap(generation: u64, spp: u32, done: bool) -> Arc<Snapshot> {
+        Arc::new(Snapshot {
+            generation,
+            width: 2,
+            height: 1,
+            mean: vec![Vec3::ONE; 2],
+            variance: vec![Vec3::ZERO; 2],
+            aovs: None,
+            spp,
+            elapsed: Duration::ZERO,
+            samples: 2 * spp as u64,
+            rays: 0,
+            rejected: 0,
+            done,
+            film: None,
+        })
+    }
+
+    #[test]
+    fn it_reruns_when_the_job_changed_the_spp_grew_by_a_quarter_or_the_target_is_reached() {
+        let sent = Some((1, 16));
+        assert!(Denoiser::due(None, &snap(1, 1, false)), "nothing denoised yet");
+        assert!(!Denoiser::due(sent, &snap(1, 19, false)), "19 < 1.25 x 16");
+        assert!(Denoiser::due(sent, &snap(1, 20, false)));
+        assert!(Denoiser::due(sent, &snap(2, 1, false)), "another job");
+        assert!(Denoiser::due(sent, &snap(1, 17, true)), "the final image");
+        assert!(!Denoiser::due(Some((1, 17)), &snap(1, 17, true)), "already sent");
+    }
+
+    #[test]
+    fn off_it_sends_nothing_and_shows_nothing() {
+        let mut denoiser = Denoiser::default();
+        let s = snap(1, 4, false);
+        assert!(!denoiser.poll(Some(&s)));
+        assert!(denoiser.worker.is_none() && denoiser.shown(&s).is_none() && denoiser.shown_key().is_none());
+    }
+
+    #[cfg(not(feature = "denoise"))]
+    #[test]
+    fn without_the_feature_the_toggle_says_how_to_build_it_in() {
+        let mut denoiser = Denoiser { enabled: true, ..Denoiser::default() };
+        let s = snap(1, 4, true);
+        denoiser.poll(Some(&s));
+        assert!(denoiser.worker.is_none() && denoiser.shown(&s).is_none());
+        assert!(denoiser.status().contains("--features denoise") && !denoiser.status().contains('\n'));
+    }
+}
