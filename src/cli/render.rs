@@ -151,11 +151,9 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
             let denoised = denoise(&snap.mean, snap.aovs.as_ref(), snap.width, snap.height)?;
             eprintln!("denoised in {:.0} ms", start.elapsed().as_secs_f64() * 1e3);
             write(&args.out, &denoised)?;
+            write(&beside(&args.out, "noisy"), &snap.mean)?;
         } else {
             write(&args.out, &snap.mean)?;
-        }
-        if args.denoise {
-            write(&beside(&args.out, "noisy"), &snap.mean)?;
         }
         if args.aovs {
             let aovs = snap.aovs.as_ref().ok_or("the render kept no AOVs")?;
@@ -182,7 +180,7 @@ fn sidecars(args: &RenderArgs) -> Vec<PathBuf> {
 }
 
 /// NAME.`what`.exr for --out NAME.png or NAME.exr.
-pub fn beside(out: &Path, what: &str) -> PathBuf {
+fn beside(out: &Path, what: &str) -> PathBuf {
     out.with_extension(format!("{what}.exr"))
 }
 

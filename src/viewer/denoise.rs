@@ -183,6 +183,7 @@ impl Denoiser {
             (Some((_, spp)), Some(last)) => format!("{last}; denoising {spp} spp"),
             (Some((_, spp)), None) => format!("denoising {spp} spp"),
             (None, Some(last)) => last,
+            (None, None) if self.enabled => "waiting for an image".into(),
             (None, None) => "off".into(),
         }
     }

@@ -58,6 +58,9 @@ pub struct Launch {
 pub fn run(launch: Launch) -> Result<(), String> {
     let Launch { scene: path, view, file_camera, fixed_size, threads, screenshot, denoise } = launch;
     if let Some(dir) = path.as_ref().filter(|p| p.is_dir()) {
+        if denoise {
+            return Err("--denoise needs a scene: pieces carry no albedo and normal images".into());
+        }
         return pieces::run(dir.clone(), screenshot.zip(view.settings.target_spp));
     }
     let scene = open(
