@@ -20,7 +20,8 @@ fn main() -> Result<(), String> {
     let scene = Arc::new(lucent::open(scene.as_deref(), &OpenOptions::default(), &mut |stage| eprintln!("{stage:?}"))?);
     let settings = Settings { width: 256, height: 256, target_spp: Some(spp), ..Settings::default() };
     let camera = scene.default_camera(1.0);
-    let session = RenderSession::new(Job { scene, camera, settings, window: None }, None).map_err(|e| e.to_string())?;
+    let session = RenderSession::new(Job { scene, camera, settings, window: None, aovs: false }, None)
+        .map_err(|e| e.to_string())?;
     let image = session.wait_until_done();
     write_image(&out, image.width, image.height, &image.mean, &Display::default()).map_err(|e| e.to_string())?;
     println!("{} spp at {:.2} Msamples/s: wrote {}", image.spp, image.samples_per_second() / 1e6, out.display());

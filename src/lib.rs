@@ -33,7 +33,7 @@
 //! let scene = std::sync::Arc::new(lucent::open(None, &OpenOptions::default(), &mut |_| {})?);
 //! let settings = Settings { width: 64, height: 64, target_spp: Some(16), ..Settings::default() };
 //! let camera = scene.default_camera(1.0);
-//! let session = RenderSession::new(Job { scene, camera, settings, window: None }, None).map_err(|e| e.to_string())?;
+//! let session = RenderSession::new(Job { scene, camera, settings, window: None, aovs: false }, None).map_err(|e| e.to_string())?;
 //! let image = session.wait_until_done();
 //! println!("{} spp, {:.2} Msamples/s", image.spp, image.samples_per_second() / 1e6);
 //! # Ok::<(), String>(())

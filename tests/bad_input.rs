@@ -485,7 +485,7 @@ fn the_film_estimate_covers_what_a_session_allocates_and_refuses_a_film_over_the
     let scene = Arc::new(Scene::build(builtin::cornell_box()));
     let camera = scene.default_camera(1.0);
     let settings = Settings { width: 320, height: 240, target_spp: Some(4), ..Settings::default() };
-    let job = || Job { scene: Arc::clone(&scene), camera, settings, window: None };
+    let job = || Job { scene: Arc::clone(&scene), camera, settings, window: None, aovs: false };
     let limits = Limits { memory: film_bytes(320, 240) };
     let (snapshot, peak) = peak_of(|| RenderSession::with_limits(job(), Some(2), limits).unwrap().wait_until_done());
     assert_eq!(snapshot.spp, 4);

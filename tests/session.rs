@@ -16,8 +16,11 @@ fn a_new_job_restarts_accumulation_without_stale_samples() {
     let scene = Arc::new(Scene::build(builtin::cornell_box()));
     let camera = scene.default_camera(1.0);
     let first = Settings { width: 32, height: 32, seed: 1, ..Settings::default() };
-    let session =
-        RenderSession::new(Job { scene: Arc::clone(&scene), camera, settings: first, window: None }, Some(2)).unwrap();
+    let session = RenderSession::new(
+        Job { scene: Arc::clone(&scene), camera, settings: first, window: None, aovs: false },
+        Some(2),
+    )
+    .unwrap();
     let g1 = session.generation();
     let before = session.wait_for_update(None, Duration::from_secs(30)).expect("a first pass");
     assert_eq!(before.generation, g1);
@@ -25,7 +28,9 @@ fn a_new_job_restarts_accumulation_without_stale_samples() {
     let mut moved = camera;
     moved.position.x += 0.05;
     let second = Settings { seed: 2, max_depth: 3, target_spp: Some(16), ..first };
-    let g2 = session.set_job(Job { scene: Arc::clone(&scene), camera: moved, settings: second, window: None }).unwrap();
+    let g2 = session
+        .set_job(Job { scene: Arc::clone(&scene), camera: moved, settings: second, window: None, aovs: false })
+        .unwrap();
     assert!(g2 > g1, "a change bumps the generation");
     assert!(session.snapshot().is_none_or(|s| s.generation == g2), "no stale snapshot is handed out");
     let after = session.wait_until_done();
@@ -46,7 +51,11 @@ fn invalid_settings_are_refused() {
         Settings { target_spp: Some(0), ..Settings::default() },
     ] {
         assert!(
-            RenderSession::new(Job { scene: Arc::clone(&scene), camera, settings: bad, window: None }, None).is_err()
+            RenderSession::new(
+                Job { scene: Arc::clone(&scene), camera, settings: bad, window: None, aovs: false },
+                None
+            )
+            .is_err()
         );
     }
 }
@@ -58,20 +67,22 @@ fn a_film_over_the_memory_limit_is_refused_and_the_session_keeps_its_job() {
     let small = Settings { width: 64, height: 64, target_spp: Some(2), ..Settings::default() };
     let limits = Limits { memory: 1 << 30 };
     let session = RenderSession::with_limits(
-        Job { scene: Arc::clone(&scene), camera, settings: small, window: None },
+        Job { scene: Arc::clone(&scene), camera, settings: small, window: None, aovs: false },
         Some(1),
         limits,
     )
     .unwrap();
     let big = Settings { width: 4096, height: 4096, ..small };
-    let err = session.set_job(Job { scene: Arc::clone(&scene), camera, settings: big, window: None }).unwrap_err();
+    let err = session
+        .set_job(Job { scene: Arc::clone(&scene), camera, settings: big, window: None, aovs: false })
+        .unwrap_err();
     assert_eq!(
         err.to_string(),
         "image too large: 4096x4096 needs about 2.2 GB for the film, over the memory limit of 1.1 GB: render it in windows (lucent render --region) and merge them"
     );
     assert_eq!(session.wait_until_done().width, 64, "the refused job did not replace the running one");
     let new = RenderSession::with_limits(
-        Job { scene: Arc::clone(&scene), camera, settings: big, window: None },
+        Job { scene: Arc::clone(&scene), camera, settings: big, window: None, aovs: false },
         Some(1),
         limits,
     );

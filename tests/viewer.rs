@@ -245,6 +245,31 @@ fn the_built_in_map_lights_the_scene_and_is_kept_while_tuning() {
     assert!(!state.scene.features.environment, "a black environment costs nothing");
 }
 
+#[cfg(feature = "denoise")]
+#[test]
+fn the_denoise_toggle_shows_a_denoised_image_and_leaves_the_accumulation_alone() {
+    let mut state = viewer();
+    state.denoiser.enabled = true;
+    let start = Instant::now();
+    let (snap, image) = loop {
+        assert!(start.elapsed() < Duration::from_secs(60), "no denoised image");
+        state.poll_denoiser();
+        if let Some(snap) = state.snapshot()
+            && let Some(d) = state.denoiser.shown(&snap)
+        {
+            break (Arc::clone(&d.source), d.image.clone());
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    };
+    assert!(state.denoiser.status().starts_with(&format!("denoised at {} spp in ", snap.spp)));
+    assert!(snap.aovs.is_some() && image != snap.mean, "denoised from the snapshot's image and AOVs");
+    let later = state.wait_for_update(Some(&snap), Duration::from_secs(30)).expect("still rendering");
+    assert!(later.spp > snap.spp && later.generation == snap.generation, "the accumulation went on, unrestarted");
+    let rgba = state.display_rgba(&snap);
+    let shown = lucent::film::tonemap::Display::default().to_srgb8(image[0]);
+    assert_eq!(rgba[0][..3], shown, "the window shows the denoised image");
+}
+
 fn xvfb_run() -> Option<PathBuf> {
     std::env::var_os("PATH")?.to_str()?.split(':').map(|d| Path::new(d).join("xvfb-run")).find(|p| p.exists())
 }
@@ -303,6 +328,46 @@ fn the_real_window_saves_the_same_image_as_the_headless_renderer() {
     assert!(a.as_raw() == b.as_raw(), "the viewer's image differs from the headless render");
     let png = image::open(&shot).unwrap();
     assert_eq!((png.width(), png.height()), (64, 48));
+}
+
+#[cfg(feature = "denoise")]
+#[test]
+fn the_real_window_denoises_its_last_snapshot_as_the_headless_renderer_does() {
+    let Some((xvfb, dir, runtime)) = under_xvfb("denoise") else { return };
+    let shot = dir.join("shot.png");
+    let args = ["--spp", "8", "--width", "64", "--height", "48", "--seed", "3"];
+    let out = Command::new(xvfb)
+        .args(["-a", "-s", "-screen 0 1280x800x24", env!("CARGO_BIN_EXE_lucent"), "view", "--denoise"])
+        .args(args)
+        .arg("--screenshot")
+        .arg(&shot)
+        .env_remove("WAYLAND_DISPLAY")
+        .env("XDG_RUNTIME_DIR", &runtime)
+        .output()
+        .unwrap();
+    let log = format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+    assert!(out.status.success() && log.contains("presenting with"), "viewer failed: {log}");
+    let reference = dir.join("ref.exr");
+    let render = Command::new(env!("CARGO_BIN_EXE_lucent"))
+        .args(["render", "--denoise"])
+        .args(args)
+        .arg("--out")
+        .arg(&reference)
+        .output()
+        .unwrap();
+    assert!(render.status.success(), "{}", String::from_utf8_lossy(&render.stderr));
+    let read = |path: &Path| image::open(path).unwrap().into_rgb32f();
+    let noisy = read(&shot.with_extension("exr"));
+    assert!(noisy.as_raw() == read(&dir.join("ref.noisy.exr")).as_raw(), "the viewer's noisy image differs");
+    let denoised = read(&shot.with_extension("denoised.exr"));
+    assert!(denoised.as_raw() != noisy.as_raw(), "the denoised image is the noisy one");
+    // The same input to the same filter on the same machine: Open Image Denoise's CPU device
+    // gives the same bits.
+    assert!(denoised.as_raw() == read(&reference).as_raw(), "the viewer denoised differently");
+    let png = image::open(&shot).unwrap().into_rgb8();
+    let display = lucent::film::tonemap::Display::default();
+    let expected: Vec<u8> = denoised.pixels().flat_map(|p| display.to_srgb8(glam::Vec3::from(p.0))).collect();
+    assert!(png.as_raw() == &expected, "the PNG is the denoised image");
 }
 
 #[test]

@@ -25,6 +25,8 @@ pub struct MerlTable {
     values: Vec<Vec3>,
     /// Density over x = sqrt(theta_half / (pi/2)), the table's own theta_half axis.
     half: Distribution1D,
+    /// Directional albedo at normal incidence, clamped to [0, 1] (`albedo`).
+    albedo: Vec3,
 }
 
 /// Cell indices of a direction pair, as MERL's `lookup_brdf_val` computes them.
@@ -88,7 +90,26 @@ impl MerlTable {
                 mean * theta_h.sin() * theta_h.cos() * x * PI
             })
             .collect();
-        Ok(Self { values, half: Distribution1D::new(func) })
+        let mut table = Self { values, half: Distribution1D::new(func), albedo: Vec3::ZERO };
+        table.albedo = table.normal_albedo();
+        Ok(table)
+    }
+
+    /// Directional albedo seen from the normal, the integral of f cos over the hemisphere,
+    /// by the midpoint rule on 32 x 32 cosine-distributed directions (f pi each).
+    fn normal_albedo(&self) -> Vec3 {
+        const N: usize = 32;
+        let mut sum = Vec3::ZERO;
+        for i in 0..N * N {
+            let u = Vec2::new(((i % N) as f32 + 0.5) / N as f32, ((i / N) as f32 + 0.5) / N as f32);
+            sum += self.eval(Vec3::Z, warp::cos_hemisphere(u)) * PI;
+        }
+        (sum / (N * N) as f32).clamp(Vec3::ZERO, Vec3::ONE)
+    }
+
+    /// Directional albedo at normal incidence in [0, 1]: the denoiser's albedo feature.
+    pub fn albedo(&self) -> Vec3 {
+        self.albedo
     }
 
     /// f(wo, wi) (no cosine); zero unless both are above the surface.

@@ -230,6 +230,18 @@ impl MetalRough {
         flags
     }
 
+    /// The denoiser's albedo (see `Bsdf::albedo`): the base colour, which is the diffuse
+    /// colour, a metal's F0 and the transmission tint alike, its diffusely transmitted share
+    /// tinted by diffuseTransmissionColor, under the sheen weighted by its albedo at `wo`
+    /// (layers add up as Open Image Denoise advises; the clearcoat absorbs nothing and is left out).
+    pub fn albedo(&self, wo: Vec3) -> Spectrum {
+        let dt = self.diffuse_transmission * (1.0 - self.transmission) * (1.0 - self.metallic);
+        let core = self.base * (1.0 - dt) + self.diffuse_transmission_color * dt;
+        let s = self.sheen_albedo(wo.z);
+        let sheen = if s > 0.0 { self.sheen * self.sheen_lobe().albedo(wo.z) } else { Spectrum::ZERO };
+        core * (1.0 - s) + sheen
+    }
+
     /// Albedo of the sheen layer at cosine `mu` (0 without sheen).
     fn sheen_albedo(&self, mu: f32) -> f32 {
         let s = self.sheen.max_element();

@@ -135,6 +135,18 @@ impl Bsdf<'_> {
         }
     }
 
+    /// Approximate reflectance in [0, 1], independent of the lighting: the denoiser's albedo
+    /// feature (Open Image Denoise, RT filter, "Albedos"). The Lambertian albedo; for the glTF
+    /// BSDF its base colour (diffuse colour, a metal's F0, a transmission's tint) under its
+    /// sheen; for a measured table its directional albedo at normal incidence.
+    pub fn albedo(&self, wo: Vec3) -> Spectrum {
+        match self {
+            Bsdf::Lambert(b) => b.albedo,
+            Bsdf::MetalRough(b) => b.albedo(wo),
+            Bsdf::Measured(t) => Spectrum::from_rgb(t.albedo()),
+        }
+    }
+
     /// Whether light can pass through to the other side (wi below the surface).
     pub fn transmits(&self) -> bool {
         match self {

@@ -327,6 +327,13 @@ pub struct RenderArgs {
     /// or a cropped image).
     #[arg(long, value_name = "X0,Y0,X1,Y1")]
     pub region: Option<String>,
+    /// Denoise with Intel Open Image Denoise (a build with --features denoise): --out gets
+    /// the denoised image, NAME.noisy.exr the noisy one beside it.
+    #[arg(long)]
+    pub denoise: bool,
+    /// Also write the denoiser's albedo and normal images, NAME.albedo.exr and NAME.normal.exr.
+    #[arg(long)]
+    pub aovs: bool,
     /// Shared render options.
     #[command(flatten)]
     pub options: RenderOptions,
@@ -341,6 +348,10 @@ pub struct ViewArgs {
     /// Render in the window until --spp is reached, save this PNG and an EXR beside it, and exit.
     #[arg(long)]
     pub screenshot: Option<PathBuf>,
+    /// Start with the Denoise toggle on (a build with --features denoise); a --screenshot is
+    /// then the denoised PNG, the noisy EXR and NAME.denoised.exr.
+    #[arg(long)]
+    pub denoise: bool,
     /// Shared render options.
     #[command(flatten)]
     pub options: RenderOptions,

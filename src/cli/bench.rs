@@ -108,7 +108,7 @@ fn measure(variants: &[Variant], args: &BenchArgs) -> Result<(), String> {
     for _ in 0..args.runs {
         for (v, out) in variants.iter().zip(&mut results) {
             let camera = v.scene.default_camera(1.0);
-            let job = Job { scene: Arc::clone(&v.scene), camera, settings: v.settings, window: None };
+            let job = Job { scene: Arc::clone(&v.scene), camera, settings: v.settings, window: None, aovs: false };
             let snap = RenderSession::new(job, args.threads).map_err(|e| e.to_string())?.wait_until_done();
             out.push((snap.samples_per_second(), snap.rays_per_second()));
         }

@@ -94,7 +94,7 @@ pub fn run(args: &ConvergenceArgs) -> Result<(), String> {
     let mut rows = Vec::new();
     for &strategy in &strategies {
         let settings = strategy.settings(base);
-        let job = Job { scene: Arc::clone(&scene), camera, settings, window: None };
+        let job = Job { scene: Arc::clone(&scene), camera, settings, window: None, aovs: false };
         let session = RenderSession::new(job, args.threads).map_err(|e| e.to_string())?;
         let mut last: Option<Arc<Snapshot>> = None;
         let wall = Instant::now();
@@ -154,7 +154,13 @@ fn reference(args: &ConvergenceArgs, scene: &Scene, base: Settings) -> Result<Ve
     // Another seed than the strategies': the Sobol strategy would otherwise repeat the
     // reference's first samples and look better than it is.
     let settings = Settings { sampler: SamplerKind::Sobol, seed: base.seed ^ 0x5eed_5eed, ..base };
-    let job = Job { scene: Arc::new(scene_copy(scene)), camera: scene.default_camera(1.0), settings, window: None };
+    let job = Job {
+        scene: Arc::new(scene_copy(scene)),
+        camera: scene.default_camera(1.0),
+        settings,
+        window: None,
+        aovs: false,
+    };
     let session = RenderSession::new(job, args.threads).map_err(|e| e.to_string())?;
     let started = Instant::now();
     let mut snap = None;

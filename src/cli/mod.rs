@@ -37,6 +37,9 @@ pub fn parse() -> Result<args::Command, ExitCode> {
 
 /// What the viewer opens for `lucent view`, checked.
 pub fn launch(args: &args::ViewArgs) -> Result<Launch, String> {
+    if args.denoise && !crate::film::denoise::AVAILABLE {
+        return Err(crate::film::denoise::NOT_BUILT.into());
+    }
     let view = args.options.resolve(None)?;
     if let Some(shot) = &args.screenshot {
         if view.settings.target_spp.is_none() {
@@ -54,6 +57,7 @@ pub fn launch(args: &args::ViewArgs) -> Result<Launch, String> {
         keep_dark: args.options.keeps_dark(),
         threads: args.options.threads,
         screenshot: args.screenshot.clone(),
+        denoise: args.denoise,
     })
 }
 

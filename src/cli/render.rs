@@ -1,6 +1,7 @@
 //! `lucent render`: open, render progressively to a sample or time budget, write the image.
 
 use super::args::RenderArgs;
+use crate::film::denoise::{self, denoise};
 use crate::film::output::{check_can_write, check_writable, write_image};
 use crate::film::piece::{self, FORMAT, Header};
 use crate::film::window::Window;
@@ -8,6 +9,7 @@ use crate::open::{OpenOptions, open};
 use crate::render::{Job, RenderSession, Snapshot};
 use crate::scene::Scene;
 use indicatif::{ProgressBar, ProgressStyle};
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -28,11 +30,20 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     {
         return Err(format!("--time {t} must be a positive number of seconds"));
     }
+    if args.denoise && !denoise::AVAILABLE {
+        return Err(denoise::NOT_BUILT.into());
+    }
     let piece = args.out.extension().is_some_and(|e| e == "part");
+    if piece && (args.denoise || args.aovs) {
+        return Err("--denoise and --aovs write images, not pieces: give --out a .png or .exr".into());
+    }
     if piece {
         check_can_write(&args.out).map_err(|e| e.to_string())?;
     } else {
         check_writable(&args.out).map_err(|e| e.to_string())?;
+    }
+    for path in sidecars(args) {
+        check_can_write(&path).map_err(|e| e.to_string())?;
     }
     let view = args.options.resolve(if args.time.is_none() { Some(64) } else { None })?;
     let mut settings = view.settings;
@@ -74,8 +85,10 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         None => view.camera.unwrap_or_else(|| scene.default_camera(settings.width as f32 / settings.height as f32)),
     };
     let window = args.region.as_deref().map(|r| Window::parse(r, settings.width, settings.height)).transpose()?;
-    let session = RenderSession::new(Job { scene: Arc::clone(&scene), camera, settings, window }, args.options.threads)
-        .map_err(|e| e.to_string())?;
+    let aovs = args.denoise || args.aovs;
+    let session =
+        RenderSession::new(Job { scene: Arc::clone(&scene), camera, settings, window, aovs }, args.options.threads)
+            .map_err(|e| e.to_string())?;
     eprintln!(
         "{}: {} triangles, BVH built in {:.3} s",
         scene.name,
@@ -116,6 +129,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     let Some(snap) = latest else {
         return Err("the time budget ended before the first pass completed: give more --time".into());
     };
+    let mut written = vec![args.out.clone()];
     if piece {
         let film = snap.film.as_ref().ok_or("the render stopped before its samples were done")?;
         let header = Header {
@@ -133,14 +147,45 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         };
         piece::write(&args.out, &header, film).map_err(|e| e.to_string())?;
     } else {
-        write_image(&args.out, snap.width, snap.height, &snap.mean, &view.display).map_err(|e| e.to_string())?;
+        let write = |path: &Path, pixels: &[glam::Vec3]| {
+            write_image(path, snap.width, snap.height, pixels, &view.display).map_err(|e| e.to_string())
+        };
+        if args.denoise {
+            let start = Instant::now();
+            let denoised = denoise(&snap.mean, snap.aovs.as_ref(), snap.width, snap.height)?;
+            eprintln!("denoised in {:.0} ms", start.elapsed().as_secs_f64() * 1e3);
+            write(&args.out, &denoised)?;
+            write(&beside(&args.out, "noisy"), &snap.mean)?;
+        } else {
+            write(&args.out, &snap.mean)?;
+        }
+        if args.aovs {
+            let aovs = snap.aovs.as_ref().ok_or("the render kept no AOVs")?;
+            write(&beside(&args.out, "albedo"), &aovs.albedo)?;
+            write(&beside(&args.out, "normal"), &aovs.normal)?;
+        }
+        written.extend(sidecars(args));
     }
-    println!("{}; wrote {}", snap.summary(&scene.name), args.out.display());
+    let names: Vec<String> = written.iter().map(|p| p.display().to_string()).collect();
+    println!("{}; wrote {}", snap.summary(&scene.name), names.join(", "));
     let causes = crate::integrator::nan::report();
     if !causes.is_empty() {
         eprintln!("warning: non-finite values by cause: {causes}");
     }
     Ok(())
+}
+
+/// The files written beside --out: with --denoise the noisy image (NAME.noisy.exr), then
+/// with --aovs the albedo and normal images (NAME.albedo.exr, NAME.normal.exr).
+fn sidecars(args: &RenderArgs) -> Vec<PathBuf> {
+    let noisy = args.denoise.then(|| beside(&args.out, "noisy"));
+    let aovs = if args.aovs { vec![beside(&args.out, "albedo"), beside(&args.out, "normal")] } else { Vec::new() };
+    noisy.into_iter().chain(aovs).collect()
+}
+
+/// NAME.`what`.exr for --out NAME.png or NAME.exr.
+fn beside(out: &Path, what: &str) -> PathBuf {
+    out.with_extension(format!("{what}.exr"))
 }
 
 fn style(template: &str) -> ProgressStyle {

@@ -1,7 +1,8 @@
 //! Accumulation buffer: per-pixel sums of radiance in 128-bit fixed point (exact, so any
 //! order of additions, and any split of a render into pieces merged later, gives the same
 //! bits) and f64 sums of its square, owned by tiles so that workers add samples without
-//! locks; NaN or infinite samples are dropped and counted.
+//! locks; NaN or infinite samples are dropped and counted. Asked for, the tiles also sum the
+//! denoiser's albedo and normal per pixel (f64, added in sample order as the radiance is).
 
 use super::window::Window;
 use crate::spectrum::Spectrum;
@@ -82,6 +83,26 @@ impl PixelSums {
     }
 }
 
+/// Running sums of one pixel's albedo and normal samples (the denoiser's AOVs).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct AovSums {
+    /// Sum of albedo samples.
+    pub albedo: DVec3,
+    /// Sum of normal samples.
+    pub normal: DVec3,
+    /// Number of samples added.
+    pub count: u64,
+}
+
+/// Per-pixel means of the denoiser's auxiliary images, row-major.
+#[derive(Clone, Debug, PartialEq)]
+pub struct AovImages {
+    /// Mean albedo (linear RGB in [0, 1]).
+    pub albedo: Vec<Vec3>,
+    /// Mean world-space shading normal (not renormalised: shorter where normals differ).
+    pub normal: Vec<Vec3>,
+}
+
 /// A rectangle of pixels and their sums, owned by one worker at a time.
 #[derive(Clone, Debug)]
 pub struct Tile {
@@ -91,6 +112,8 @@ pub struct Tile {
     pub size: UVec2,
     /// Row-major sums.
     pub pixels: Vec<PixelSums>,
+    /// Row-major AOV sums; empty unless the film records AOVs (`Film::record_aovs`).
+    pub aovs: Vec<AovSums>,
     /// Samples dropped for being NaN or infinite.
     pub rejected: u64,
 }
@@ -109,6 +132,20 @@ impl Tile {
         }
         px.sum_sq += r * r;
         px.count += 1;
+    }
+
+    /// Adds one sample's albedo and normal to the pixel at `local`, if the film records
+    /// AOVs; drops them if not finite.
+    pub fn add_aov(&mut self, local: UVec2, albedo: Vec3, normal: Vec3) {
+        let i = (local.y * self.size.x + local.x) as usize;
+        if let Some(px) = self.aovs.get_mut(i)
+            && albedo.is_finite()
+            && normal.is_finite()
+        {
+            px.albedo += albedo.as_dvec3();
+            px.normal += normal.as_dvec3();
+            px.count += 1;
+        }
     }
 }
 
@@ -140,7 +177,7 @@ impl Film {
                 let size = UVec2::new(TILE_SIZE.min(width - x0), TILE_SIZE.min(height - y0));
                 let pixels = vec![PixelSums::default(); (size.x * size.y) as usize];
                 let origin = UVec2::new(window.x0 + x0, window.y0 + y0);
-                tiles.push(Tile { origin, size, pixels, rejected: 0 });
+                tiles.push(Tile { origin, size, pixels, aovs: Vec::new(), rejected: 0 });
             }
         }
         Self { window, width, height, tiles }
@@ -151,6 +188,38 @@ impl Film {
         let pixels = width as u64 * height as u64;
         let tiles = width.div_ceil(TILE_SIZE) as u64 * height.div_ceil(TILE_SIZE) as u64;
         pixels * std::mem::size_of::<PixelSums>() as u64 + 2 * tiles * std::mem::size_of::<Tile>() as u64
+    }
+
+    /// Bytes `record_aovs` adds to a `width` x `height` film.
+    pub fn aov_bytes(width: u32, height: u32) -> u64 {
+        width as u64 * height as u64 * std::mem::size_of::<AovSums>() as u64
+    }
+
+    /// Makes the tiles sum the denoiser's albedo and normal too, from the next sample on.
+    pub fn record_aovs(&mut self) {
+        for tile in &mut self.tiles {
+            tile.aovs.resize(tile.pixels.len(), AovSums::default());
+        }
+    }
+
+    /// Mean albedo and normal images, if the film records AOVs.
+    pub fn aov_images(&self) -> Option<AovImages> {
+        if self.tiles.iter().any(|t| t.aovs.is_empty()) {
+            return None;
+        }
+        let n = (self.width * self.height) as usize;
+        let mut images = AovImages { albedo: vec![Vec3::ZERO; n], normal: vec![Vec3::ZERO; n] };
+        for tile in &self.tiles {
+            let (x0, y0) = (tile.origin.x - self.window.x0, tile.origin.y - self.window.y0);
+            for (i, px) in tile.aovs.iter().enumerate() {
+                let at = ((y0 + i as u32 / tile.size.x) * self.width + x0 + i as u32 % tile.size.x) as usize;
+                if px.count > 0 {
+                    images.albedo[at] = (px.albedo / px.count as f64).as_vec3();
+                    images.normal[at] = (px.normal / px.count as f64).as_vec3();
+                }
+            }
+        }
+        Some(images)
     }
 
     /// Applies `f(x, y, sums)` to every pixel, in the film's coordinates.
@@ -226,5 +295,22 @@ mod tests {
         assert_eq!(film.rejected(), 2);
         assert_eq!(film.mean_image()[5], Vec3::splat(3.0));
         assert!((film.variance_image()[5].x - 1.0).abs() < 1e-6, "s^2 = 2, n = 2");
+    }
+
+    #[test]
+    fn aovs_are_summed_only_when_recorded_and_averaged_per_pixel() {
+        let mut film = Film::window(Window { x0: 16, y0: 0, x1: 36, y1: 4 });
+        film.tiles[1].add_aov(UVec2::new(1, 2), Vec3::ONE, Vec3::Z);
+        assert_eq!(film.aov_images(), None, "not asked for: nothing kept");
+        film.record_aovs();
+        let tile = &mut film.tiles[1];
+        tile.add_aov(UVec2::new(1, 2), Vec3::new(0.5, 0.25, 1.0), Vec3::Z);
+        tile.add_aov(UVec2::new(1, 2), Vec3::new(0.25, 0.25, 0.0), Vec3::X);
+        tile.add_aov(UVec2::new(1, 2), Vec3::splat(f32::NAN), Vec3::X);
+        let images = film.aov_images().unwrap();
+        let at = (2 * 20 + 16 + 1) as usize;
+        assert_eq!(images.albedo[at], Vec3::new(0.375, 0.25, 0.5), "the NaN sample is dropped");
+        assert_eq!(images.normal[at], Vec3::new(0.5, 0.0, 0.5));
+        assert_eq!(images.albedo.iter().filter(|a| **a != Vec3::ZERO).count(), 1);
     }
 }

@@ -1,10 +1,11 @@
-//! The film: per-pixel sums owned by tiles, and turning them into images.
+//! The film: per-pixel sums owned by tiles, and turning them into images (and denoised ones).
 
 pub mod accum;
+pub mod denoise;
 pub mod merge;
 pub mod output;
 pub mod piece;
 pub mod tonemap;
 pub mod window;
 
-pub use accum::{Film, Tile};
+pub use accum::{AovImages, Film, Tile};

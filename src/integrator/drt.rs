@@ -5,8 +5,10 @@
 //! to 10, deterministic and biased). Light sampling at each hit works as in the path
 //! tracer, with the direction scheme's density in the MIS weights. Surfaces with a null lobe
 //! are crossed without a bounce, as in the path tracer. Participating media are the path
-//! tracer's (a scene with a scattering medium refuses this estimator).
+//! tracer's (a scene with a scattering medium refuses this estimator). The denoiser's AOVs
+//! follow the first branch of each delta vertex to the first non-specular one (`aov`).
 
+use super::aov::AovTrace;
 use super::direct::sample_direct;
 use super::emission::{emitted, escaped};
 use super::kernel::PathOutput;
@@ -22,12 +24,20 @@ use crate::spectrum::{Spectrum, Wavelengths};
 use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_PI_2, TAU};
 
-/// Radiance along a camera ray starting in `media` by distribution ray tracing, and the
-/// rays it traced.
-pub fn radiance(scene: &Scene, settings: &Settings, ray: Ray, media: Media, sampler: &mut Sampler) -> PathOutput {
+/// Radiance along a camera ray starting in `media` by distribution ray tracing, the rays
+/// it traced, and with `aovs` the denoiser's albedo and normal.
+pub fn radiance(
+    scene: &Scene,
+    settings: &Settings,
+    ray: Ray,
+    media: Media,
+    sampler: &mut Sampler,
+    aovs: bool,
+) -> PathOutput {
     let mut out = PathOutput::default();
-    let radiance = trace(scene, settings, ray, media, (0, 0.0), None, sampler, &mut out);
-    PathOutput { radiance, ..out }
+    let mut aov = AovTrace::new(aovs);
+    let radiance = trace(scene, settings, ray, media, (0, 0.0), None, sampler, &mut out, &mut aov);
+    PathOutput { radiance, aov: aov.finish(), ..out }
 }
 
 /// Theta and phi cell counts of the grid for `n` directions: n = m x k with m about
@@ -46,7 +56,7 @@ fn strata_shape(n: u32) -> (u32, u32) {
 }
 
 /// Radiance arriving along `ray` at bounce `depth`, `travelled` from the vertex that sampled
-/// it as `last`, counting rays into `out`.
+/// it as `last`, counting rays into `out` and following `aov`.
 #[allow(clippy::too_many_arguments)]
 fn trace(
     scene: &Scene,
@@ -57,6 +67,7 @@ fn trace(
     last: Option<Scattered>,
     sampler: &mut Sampler,
     out: &mut PathOutput,
+    aov: &mut AovTrace,
 ) -> Spectrum {
     out.rays += 1;
     let Some(hit) = scene.intersect(&ray, settings.watertight, depth == 0) else {
@@ -73,15 +84,21 @@ fn trace(
         radiance += emitted(scene, settings, &surface, -ray.d, travelled + hit.t, last, &Wavelengths::Rgb);
     }
     if depth == settings.max_depth && !scene.features.see_through {
+        if aov.pending() {
+            aov.surface(&Vertex::new(scene, settings, surface, ray.d, media, &mut Wavelengths::Rgb));
+        }
         return radiance * absorbed;
     }
     let vertex = Vertex::new(scene, settings, surface, ray.d, media, &mut Wavelengths::Rgb);
+    aov.surface(&vertex);
     if depth == settings.max_depth {
         // No bounce is left, but light passing straight through still goes on.
         if let Some(passed) = vertex.bsdf.null_transmission(vertex.wo).filter(|p| !p.is_black()) {
             let next = Ray { o: vertex.behind, d: ray.d, tmax: f32::INFINITY };
             let media = vertex.media_after(scene, true);
-            radiance += passed * trace(scene, settings, next, media, (depth, travelled + hit.t), last, sampler, out);
+            aov.delta(passed, 1.0);
+            let arriving = trace(scene, settings, next, media, (depth, travelled + hit.t), last, sampler, out, aov);
+            radiance += passed * arriving;
         }
         return radiance * absorbed;
     }
@@ -93,16 +110,17 @@ fn trace(
     }
     let n = settings.branching;
     // A direction sampled as `scattered`, or passed straight through a null lobe (None).
-    let mut follow = |wi_local: Vec3, weight: Spectrum, scattered: Option<Scattered>, sampler: &mut Sampler| {
-        let Some((d, o, crosses)) = vertex.leave(wi_local) else { return Spectrum::ZERO };
-        let next = Ray { o, d, tmax: f32::INFINITY };
-        let media = vertex.media_after(scene, crosses);
-        let (depth, travelled, last) = match scattered {
-            Some(s) => (depth + 1, 0.0, Some(s)),
-            None => (depth, travelled + hit.t, last),
+    let mut follow =
+        |wi_local: Vec3, weight: Spectrum, scattered: Option<Scattered>, sampler: &mut Sampler, aov: &mut AovTrace| {
+            let Some((d, o, crosses)) = vertex.leave(wi_local) else { return Spectrum::ZERO };
+            let next = Ray { o, d, tmax: f32::INFINITY };
+            let media = vertex.media_after(scene, crosses);
+            let (depth, travelled, last) = match scattered {
+                Some(s) => (depth + 1, 0.0, Some(s)),
+                None => (depth, travelled + hit.t, last),
+            };
+            weight * trace(scene, settings, next, media, (depth, travelled), last, sampler, out, aov)
         };
-        weight * trace(scene, settings, next, media, (depth, travelled), last, sampler, out)
-    };
     let sampling = Sampling::new(settings.importance_sampling);
     match settings.directions {
         Directions::Stratified => {
@@ -115,11 +133,22 @@ fn trace(
                 if let Some(bs) = sampling.sample(&vertex.bsdf, vertex.wo, u_lobe, u) {
                     let null = bs.flags.contains(LobeFlags::NULL);
                     let scattered = (!null).then_some(Scattered { pdf: bs.pdf, specular: bs.is_specular() });
-                    radiance += follow(bs.wi, bs.weight / n as f32, scattered, sampler);
+                    // The AOVs follow the first direction of a delta vertex only.
+                    let mut branch = if s == 0 { *aov } else { AovTrace::off() };
+                    branch.delta(bs.weight, bs.eta);
+                    radiance += follow(bs.wi, bs.weight / n as f32, scattered, sampler, &mut branch);
+                    if s == 0 {
+                        *aov = branch;
+                    }
                 }
             }
         }
-        Directions::Grid => radiance += grid(&vertex.bsdf, vertex.wo, n, sampler, &mut follow),
+        // The grid sees no delta lobe: the AOVs are recorded here or nowhere.
+        Directions::Grid => {
+            radiance += grid(&vertex.bsdf, vertex.wo, n, sampler, &mut |wi, w, s, sampler| {
+                follow(wi, w, s, sampler, &mut AovTrace::off())
+            })
+        }
     }
     radiance * absorbed
 }

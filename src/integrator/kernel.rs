@@ -14,6 +14,7 @@
 //! per sample (`Wavelengths`: RGB, whose conversions do nothing, or sampled wavelengths),
 //! which costs the RGB kernel 0.3% more instructions on the Cornell box.
 
+use super::aov::Aov;
 use super::media::Media;
 use super::nan::{NanCause, check};
 use super::settings::{Integrator, PixelSampling, Settings};
@@ -25,7 +26,7 @@ use crate::scene::{
 use crate::spectrum::{Spectrum, Wavelengths, sampled::Sampled};
 use glam::{UVec2, Vec2};
 
-/// The radiance one pixel sample carries, and how many rays it traced.
+/// The radiance one pixel sample carries, how many rays it traced, and the AOVs if asked.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct PathOutput {
     /// Radiance estimate (may be NaN or infinite if something went wrong; the film drops it).
@@ -34,6 +35,8 @@ pub struct PathOutput {
     pub rays: u32,
     /// Of those, shadow rays.
     pub shadow_rays: u32,
+    /// The denoiser's albedo and normal, when asked for (`sample_pixel`'s `aovs`).
+    pub aov: Option<Aov>,
 }
 
 /// A camera's view of a scene for one image: its rays, and the volumes it sits in.
@@ -99,8 +102,16 @@ fn pixel_offset(settings: &Settings, pixel: UVec2, index: u64, sampler: &mut Sam
     }
 }
 
-/// Sample `index` of `pixel`.
-pub fn sample_pixel(scene: &Scene, settings: &Settings, view: &View, pixel: UVec2, index: u64) -> PathOutput {
+/// Sample `index` of `pixel`; with `aovs`, also its albedo and normal for the denoiser (the
+/// radiance is the same bits either way).
+pub fn sample_pixel(
+    scene: &Scene,
+    settings: &Settings,
+    view: &View,
+    pixel: UVec2,
+    index: u64,
+    aovs: bool,
+) -> PathOutput {
     let mut sampler = Sampler::of_kind(settings.sampler, pixel, index, settings.seed);
     let film = pixel.as_vec2() + pixel_offset(settings, pixel, index, &mut sampler);
     let ray = view.rays.ray(film);
@@ -112,9 +123,13 @@ pub fn sample_pixel(scene: &Scene, settings: &Settings, view: &View, pixel: UVec
         Wavelengths::Rgb
     };
     let mut out = match (settings.integrator, scene.features.media) {
-        (Integrator::Path, false) => super::path::radiance::<false>(scene, settings, ray, media, &mut sampler, &mut wl),
-        (Integrator::Path, true) => super::path::radiance::<true>(scene, settings, ray, media, &mut sampler, &mut wl),
-        (Integrator::Distribution, _) => super::drt::radiance(scene, settings, ray, media, &mut sampler),
+        (Integrator::Path, false) => {
+            super::path::radiance::<false>(scene, settings, ray, media, &mut sampler, &mut wl, aovs)
+        }
+        (Integrator::Path, true) => {
+            super::path::radiance::<true>(scene, settings, ray, media, &mut sampler, &mut wl, aovs)
+        }
+        (Integrator::Distribution, _) => super::drt::radiance(scene, settings, ray, media, &mut sampler, aovs),
     };
     out.radiance = wl.to_rgb(out.radiance);
     if let Some(c) = settings.firefly_clamp {

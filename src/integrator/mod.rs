@@ -1,9 +1,10 @@
 //! Estimators of the rendering equation. The path tracer (`path`) and the distribution
 //! ray tracer (`drt`) are leaves built from shared parts: the pixel sample (`kernel`), the
 //! surface vertex (`vertex`), direction sampling (`scatter`), next-event estimation
-//! (`direct`), light found by BSDF rays (`emission`), MIS weights (`mis`) and the volumes a
-//! path is in (`media`).
+//! (`direct`), light found by BSDF rays (`emission`), MIS weights (`mis`), the volumes a
+//! path is in (`media`) and the denoiser's albedo and normal of a sample (`aov`).
 
+mod aov;
 mod direct;
 mod drt;
 mod emission;
@@ -16,6 +17,7 @@ pub mod scatter;
 pub mod settings;
 mod vertex;
 
+pub use aov::Aov;
 pub use drt::grid_shape;
 pub use kernel::{PathOutput, View, is_spectral, sample_pixel, simulated_effects};
 pub use scatter::Sampling;

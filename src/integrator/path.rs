@@ -12,7 +12,11 @@
 //! Surfaces with a null lobe (index-matched interfaces, smooth thin walls passed straight
 //! through) are crossed without a bounce: the last real vertex stays the reference of the MIS
 //! weights, and the distance from it keeps adding up.
+//!
+//! Asked for them, the path also reports the denoiser's AOVs: the albedo and normal of its
+//! first non-specular vertex (`aov`).
 
+use super::aov::AovTrace;
 use super::direct::{sample_direct, sample_medium};
 use super::emission::{emitted, escaped};
 use super::kernel::PathOutput;
@@ -31,7 +35,8 @@ use crate::spectrum::{Spectrum, Wavelengths};
 /// Most surfaces a path crosses without a bounce (guards against coincident null surfaces).
 const MAX_CROSSINGS: u32 = 256;
 
-/// Radiance along a camera ray starting in `media`, by path tracing, and the rays it traced.
+/// Radiance along a camera ray starting in `media`, by path tracing, the rays it traced,
+/// and with `aovs` the denoiser's albedo and normal.
 pub fn radiance<const MEDIA: bool>(
     scene: &Scene,
     settings: &Settings,
@@ -39,8 +44,10 @@ pub fn radiance<const MEDIA: bool>(
     mut media: Media,
     sampler: &mut Sampler,
     wl: &mut Wavelengths,
+    aovs: bool,
 ) -> PathOutput {
     let mut out = PathOutput::default();
+    let mut aov = AovTrace::new(aovs);
     let mut throughput = Spectrum::ONE;
     let mut eta_scale = 1.0f32;
     let mut last: Option<Scattered> = None;
@@ -85,6 +92,7 @@ pub fn radiance<const MEDIA: bool>(
             };
             if let Some((t, weight)) = scattered {
                 throughput *= weight;
+                aov.medium(volume.albedo, -ray.d / length);
                 if depth == settings.max_depth {
                     break;
                 }
@@ -124,9 +132,14 @@ pub fn radiance<const MEDIA: bool>(
             out.radiance += throughput * emitted(scene, settings, &surface, -ray.d, travelled + hit.t, last, wl);
         }
         if depth == settings.max_depth && !scene.features.see_through {
+            if aov.pending() {
+                // Its own wavelengths: the path's must not change for the AOVs' sake.
+                aov.surface(&Vertex::new(scene, settings, surface, ray.d, media, &mut Wavelengths::Rgb));
+            }
             break;
         }
         let vertex = Vertex::new(scene, settings, surface, ray.d, media, wl);
+        aov.surface(&vertex);
         if depth == settings.max_depth {
             // No bounce is left, but light passing straight through still goes on.
             let Some(passed) = vertex.bsdf.null_transmission(vertex.wo) else { break };
@@ -135,6 +148,7 @@ pub fn radiance<const MEDIA: bool>(
                 break;
             }
             throughput *= wl.reflectance(passed);
+            aov.delta(passed, 1.0);
             travelled += hit.t;
             media = vertex.media_after(scene, true);
             ray = Ray { o: vertex.behind, d: ray.d, tmax: f32::INFINITY };
@@ -157,6 +171,7 @@ pub fn radiance<const MEDIA: bool>(
         check(NanCause::BsdfSample, bs.weight);
         let Some((d, origin, crosses)) = vertex.leave(bs.wi) else { break };
         throughput *= wl.reflectance(bs.weight);
+        aov.delta(bs.weight, bs.eta);
         media = vertex.media_after(scene, crosses);
         ray = Ray { o: origin, d, tmax: f32::INFINITY };
         if bs.flags.contains(LobeFlags::NULL) {
@@ -177,6 +192,7 @@ pub fn radiance<const MEDIA: bool>(
             break;
         }
     }
+    out.aov = aov.finish();
     out
 }
 

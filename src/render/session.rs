@@ -1,8 +1,9 @@
 //! A render session: a coordinator thread runs passes over the film's tiles on a rayon pool
 //! (each worker owns whole tiles, so the add path takes no lock), publishes a snapshot
-//! after every pass, and restarts at once when a new job bumps the generation.
+//! after every pass, and restarts at once when a new job bumps the generation. A job may ask
+//! for the denoiser's albedo and normal images too (AOVs), which leave its radiance unchanged.
 
-use crate::film::{Film, Tile, window::Window};
+use crate::film::{AovImages, Film, Tile, window::Window};
 use crate::integrator::{Integrator, Settings, View, sample_pixel, settings::InvalidSettings};
 use crate::memory::{Limits, format_bytes};
 use crate::scene::{Scene, camera::Camera};
@@ -24,6 +25,9 @@ pub struct Job {
     pub settings: Settings,
     /// The part of the frame to render (`None`: all of it).
     pub window: Option<Window>,
+    /// Also accumulate the denoiser's albedo and normal images (not image-defining: the
+    /// radiance is the same bits either way).
+    pub aovs: bool,
 }
 
 impl Job {
@@ -46,6 +50,8 @@ pub struct Snapshot {
     pub mean: Vec<Vec3>,
     /// Row-major estimated variance of each pixel's mean.
     pub variance: Vec<Vec3>,
+    /// Mean albedo and normal images, if the job asked for them.
+    pub aovs: Option<AovImages>,
     /// Samples per pixel accumulated.
     pub spp: u32,
     /// Time spent rendering this generation (pauses excluded).
@@ -139,6 +145,12 @@ pub enum SessionError {
 pub fn film_bytes(width: u32, height: u32) -> u64 {
     let snapshot = 2 * width as u64 * height as u64 * std::mem::size_of::<Vec3>() as u64;
     Film::bytes(width, height) + 2 * snapshot
+}
+
+/// Bytes AOVs add to a session's film: their sums, and two snapshots' albedo and normal.
+fn aov_bytes(width: u32, height: u32) -> u64 {
+    let snapshot = 2 * width as u64 * height as u64 * std::mem::size_of::<Vec3>() as u64;
+    Film::aov_bytes(width, height) + 2 * snapshot
 }
 
 struct Pending {
@@ -321,7 +333,8 @@ fn check_job(job: &Job, limits: &Limits) -> Result<(), SessionError> {
     }
     let window = job.window();
     let (width, height) = (window.width(), window.height());
-    let bytes = film_bytes(width, height);
+    let aovs = if job.aovs { aov_bytes(width, height) } else { 0 };
+    let bytes = film_bytes(width, height) + aovs;
     if bytes > limits.memory {
         return Err(SessionError::TooLarge { width, height, bytes, limit: limits.memory });
     }
@@ -344,8 +357,12 @@ struct Active {
 impl Active {
     fn new(job: Job, generation: u64) -> Self {
         let s = job.settings;
+        let mut film = Film::window(job.window());
+        if job.aovs {
+            film.record_aovs();
+        }
         Self {
-            film: Film::window(job.window()),
+            film,
             view: View::new(&job.scene, &job.camera, s.width, s.height),
             job,
             generation,
@@ -392,6 +409,7 @@ fn coordinate(shared: &Shared, pool: &rayon::ThreadPool) {
             height: a.film.height,
             mean: a.film.mean_image(),
             variance: a.film.variance_image(),
+            aovs: a.film.aov_images(),
             spp: a.spp,
             elapsed: a.elapsed,
             samples: a.samples,
@@ -415,6 +433,7 @@ struct Pass<'a> {
     count: u32,
     current: &'a AtomicU64,
     generation: u64,
+    aovs: bool,
 }
 
 impl Pass<'_> {
@@ -433,8 +452,11 @@ impl Pass<'_> {
                 let local = UVec2::new(lx, ly);
                 let pixel = tile.origin + local;
                 for i in 0..self.count as u64 {
-                    let out = sample_pixel(self.scene, self.settings, self.view, pixel, self.first + i);
+                    let out = sample_pixel(self.scene, self.settings, self.view, pixel, self.first + i, self.aovs);
                     tile.add(local, out.radiance);
+                    if let Some(aov) = out.aov {
+                        tile.add_aov(local, aov.albedo, aov.normal);
+                    }
                     traced += out.rays as u64;
                 }
                 samples += self.count as u64;
@@ -455,6 +477,7 @@ fn run_pass(shared: &Shared, pool: &rayon::ThreadPool, a: &mut Active) -> bool {
         count: a.pass_spp.min(remaining),
         current: &shared.generation,
         generation: a.generation,
+        aovs: a.job.aovs,
     };
     let start = Instant::now();
     let (samples, traced) = pool.install(|| {

@@ -102,6 +102,7 @@ mod tests {
             height: 1,
             mean: vec![Vec3::ONE],
             variance: vec![Vec3::splat(error * error)],
+            aovs: None,
             spp: 2,
             elapsed: Duration::from_secs_f64(seconds),
             samples: 1,

@@ -3,6 +3,7 @@
 
 pub mod camera_control;
 pub mod convergence;
+pub mod denoise;
 mod gpu;
 mod pieces;
 pub mod state;
@@ -30,8 +31,9 @@ const POLL: Duration = Duration::from_millis(33);
 /// final one are shown at once).
 const REFRESH: Duration = Duration::from_millis(250);
 
-/// What decides how an image is drawn: display transform, error view, selected material.
-type Look = (crate::film::tonemap::Display, bool, Option<u32>);
+/// What decides how an image is drawn: display transform, error view, selected material,
+/// the denoised result shown.
+type Look = (crate::film::tonemap::Display, bool, Option<u32>, Option<(u64, u32)>);
 
 /// What the viewer opens, as the command line resolved it.
 pub struct Launch {
@@ -49,13 +51,18 @@ pub struct Launch {
     pub threads: Option<usize>,
     /// Render until the target spp, save this PNG (and an EXR beside it) and exit.
     pub screenshot: Option<PathBuf>,
+    /// Start with the Denoise toggle on.
+    pub denoise: bool,
 }
 
 /// Opens the viewer (on a folder of pieces: their merge as they arrive); with a screenshot
 /// path, renders to the target spp, saves and exits.
 pub fn run(launch: Launch) -> Result<(), String> {
-    let Launch { scene: path, view, file_camera, fixed_size, keep_dark, threads, screenshot } = launch;
+    let Launch { scene: path, view, file_camera, fixed_size, keep_dark, threads, screenshot, denoise } = launch;
     if let Some(dir) = path.as_ref().filter(|p| p.is_dir()) {
+        if denoise {
+            return Err("--denoise needs a scene: pieces carry no albedo and normal images".into());
+        }
         return pieces::run(dir.clone(), screenshot.zip(view.settings.target_spp));
     }
     let scene = open(
@@ -70,7 +77,8 @@ pub fn run(launch: Launch) -> Result<(), String> {
         Some(i) => Some(scene.file_camera(i).map_err(|e| format!("--{e}"))?),
         None => view.camera,
     };
-    let state = ViewerState::new(scene, path, view.settings, fixed_size, view.display, camera, threads)?;
+    let mut state = ViewerState::new(scene, path, view.settings, fixed_size, view.display, camera, threads)?;
+    state.denoiser.enabled = denoise;
     let event_loop = EventLoop::new().map_err(|e| format!("cannot open a window: {e}"))?;
     let mut app = App::new(state, screenshot);
     event_loop.run_app(&mut app).map_err(|e| format!("the window's event loop failed: {e}"))?;
@@ -168,7 +176,7 @@ impl App {
 
     /// How the state asks images to be drawn now.
     fn look(&self) -> Look {
-        (self.state.display, self.state.show_error, self.state.selected)
+        (self.state.display, self.state.show_error, self.state.selected, self.state.denoiser.shown_key())
     }
 
     /// The newest image, if it should replace the one on screen now (or be redrawn, if
@@ -233,10 +241,19 @@ impl App {
         }
     }
 
-    /// In --screenshot mode: once the target is reached and shown, save and exit.
+    /// In --screenshot mode: once the target is reached and shown (denoised, with the
+    /// toggle on), save and exit.
     fn finish_screenshot(&mut self, event_loop: &ActiveEventLoop, path: &Path) {
         let Some(snap) = self.ui.shown.clone() else { return };
         if !snap.done || snap.generation != self.state.generation() {
+            return;
+        }
+        let denoiser = &self.state.denoiser;
+        if denoiser.enabled && !denoiser.done_with(&snap) {
+            if let Some(e) = denoiser.error() {
+                let e = e.to_string();
+                self.fail(event_loop, e);
+            }
             return;
         }
         match self.state.save_images(&snap, path) {
@@ -290,6 +307,7 @@ impl ApplicationHandler for App {
         if self.window.is_none() {
             return;
         }
+        self.state.poll_denoiser();
         let newer = self.image_due().is_some();
         let due = self.repaint_at.is_some_and(|t| t <= Instant::now());
         if std::mem::take(&mut self.redraw_wanted) || newer || due || self.state.loading_status().is_some() {

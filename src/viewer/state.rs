@@ -1,10 +1,13 @@
 //! The viewer's state apart from the window: scene, render session, view, editors, file
-//! loading and screenshots. Plain data around the session, so its logic is tested headless.
+//! loading, screenshots and the denoiser. Plain data around the session, so its logic is
+//! tested headless.
 //! The UI edits fields freely; `sync` turns any change into a restart of accumulation.
 
 use super::camera_control::CameraController;
 use super::convergence::{self, ConvergenceLog};
+use super::denoise::Denoiser;
 use crate::config::ViewFile;
+use crate::film::denoise::AVAILABLE as DENOISER_BUILT_IN;
 use crate::film::output::write_image;
 use crate::film::tonemap::Display;
 use crate::integrator::Settings;
@@ -23,6 +26,10 @@ use std::path::{Path, PathBuf};
 use std::sync::mpsc::{Receiver, TryRecvError};
 use std::sync::{Arc, atomic::AtomicBool, atomic::Ordering};
 use std::time::{Duration, Instant};
+
+/// Whether jobs ask for the denoiser's AOVs: whenever it is built in, so that toggling it
+/// on shows the image accumulated so far instead of restarting.
+const WANT_AOVS: bool = DENOISER_BUILT_IN;
 
 /// Divisor of the resolution while the camera moves: a pass at 1/64 of the pixels shows a
 /// first image within a frame. Once the camera stops, each level's first image halves
@@ -94,6 +101,8 @@ pub struct ViewerState {
     pub convergence: ConvergenceLog,
     /// Show the per-pixel relative standard error in false colour instead of the image.
     pub show_error: bool,
+    /// The Denoise toggle and its worker.
+    pub denoiser: Denoiser,
     /// The last notice (where a screenshot went, ...).
     pub message: Option<String>,
     /// Folder for screenshots (by default beside the scene, see `default_screenshot_dir`).
@@ -137,7 +146,7 @@ impl ViewerState {
         let viewport = UVec2::new(settings.width, settings.height);
         let controller = controller_for(&scene, camera, settings.width as f32 / settings.height as f32);
         let sent = JobKey { scene: Arc::clone(&scene), camera: controller.camera(), settings };
-        let job = Job { scene: Arc::clone(&scene), camera: sent.camera, settings, window: None };
+        let job = Job { scene: Arc::clone(&scene), camera: sent.camera, settings, window: None, aovs: WANT_AOVS };
         let session = RenderSession::new_yielding(job, threads).map_err(|e| e.to_string())?;
         let screenshot_dir = default_screenshot_dir(source.as_deref()).to_string_lossy().into_owned();
         let fly_speed = 0.25 * scene.radius().max(1e-3);
@@ -169,6 +178,7 @@ impl ViewerState {
             settings_error: None,
             convergence: ConvergenceLog::default(),
             show_error: false,
+            denoiser: Denoiser::default(),
             message: None,
             screenshot_dir,
             open_path: String::new(),
@@ -224,7 +234,13 @@ impl ViewerState {
         if want == self.sent {
             return false;
         }
-        let job = Job { scene: Arc::clone(&want.scene), camera: want.camera, settings: want.settings, window: None };
+        let job = Job {
+            scene: Arc::clone(&want.scene),
+            camera: want.camera,
+            settings: want.settings,
+            window: None,
+            aovs: WANT_AOVS,
+        };
         match self.session.set_job(job) {
             Ok(_) => {
                 self.settings_error = None;
@@ -422,8 +438,16 @@ impl ViewerState {
         }
     }
 
-    /// Tonemaps a snapshot to RGBA8 for display, tinting the selected material's pixels;
-    /// or, with `show_error`, the false colour of each pixel's relative standard error.
+    /// Hands the latest snapshot to the denoiser if it is due, and takes its result; true
+    /// when a new result arrived. Never waits.
+    pub fn poll_denoiser(&mut self) -> bool {
+        let snap = self.session.snapshot();
+        self.denoiser.poll(snap.as_ref())
+    }
+
+    /// Tonemaps a snapshot to RGBA8 for display (its denoised image when the toggle is on and
+    /// one of this job is ready), tinting the selected material's pixels; or, with
+    /// `show_error`, the false colour of each pixel's relative standard error.
     pub fn display_rgba(&mut self, snap: &Snapshot) -> Vec<[u8; 4]> {
         if self.show_error {
             return (0..snap.mean.len())
@@ -434,7 +458,8 @@ impl ViewerState {
             self.update_material_ids(snap);
         }
         let mask = self.selected.zip(self.ids.as_ref().map(|b| &b.ids));
-        snap.mean
+        let pixels = self.denoiser.shown(snap).map_or(&snap.mean, |d| &d.image);
+        pixels
             .iter()
             .enumerate()
             .map(|(i, &p)| {
@@ -468,9 +493,11 @@ impl ViewerState {
     }
 
     /// Saves the latest image as `<scene>-<spp>spp.png` (tonemapped) and `.exr` (linear)
-    /// in the screenshot folder; returns the PNG's path.
+    /// in the screenshot folder; with a denoised image of this job shown, that image's
+    /// snapshot, denoised in the PNG and `.denoised.exr`. Returns the PNG's path.
     pub fn screenshot(&mut self) -> Result<PathBuf, String> {
-        let snap = self.snapshot().ok_or("nothing rendered yet")?;
+        let latest = self.snapshot().ok_or("nothing rendered yet")?;
+        let snap = self.denoiser.shown(&latest).map_or(latest, |d| Arc::clone(&d.source));
         let name = format!("{}-{}spp.png", self.scene.name, snap.spp);
         let dir = Path::new(&self.screenshot_dir);
         std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
@@ -479,11 +506,20 @@ impl ViewerState {
         Ok(path)
     }
 
-    /// Writes `png` (tonemapped) and the same path with .exr (linear) from `snap`.
+    /// Writes `png` (tonemapped) and the same path with .exr (linear) from `snap`; when its
+    /// denoised image is shown, the PNG is that image and `.denoised.exr` holds it too,
+    /// while the `.exr` stays the noisy one.
     pub fn save_images(&self, snap: &Snapshot, png: &Path) -> Result<(), String> {
-        write_image(png, snap.width, snap.height, &snap.mean, &self.display).map_err(|e| e.to_string())?;
-        write_image(&png.with_extension("exr"), snap.width, snap.height, &snap.mean, &self.display)
-            .map_err(|e| e.to_string())
+        let (w, h) = (snap.width, snap.height);
+        let write =
+            |path: &Path, pixels: &[Vec3]| write_image(path, w, h, pixels, &self.display).map_err(|e| e.to_string());
+        let denoised = self.denoiser.shown(snap).filter(|d| d.source.spp == snap.spp);
+        write(png, denoised.map_or(&snap.mean, |d| &d.image))?;
+        write(&png.with_extension("exr"), &snap.mean)?;
+        match denoised {
+            Some(d) => write(&png.with_extension("denoised.exr"), &d.image),
+            None => Ok(()),
+        }
     }
 
     /// Saves camera, settings and display to `view_path`.

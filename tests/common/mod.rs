@@ -23,7 +23,7 @@ pub fn cornell_box_file() -> PathBuf {
 /// Renders `scene` from `camera` to `settings.target_spp` on `threads` workers.
 pub fn render(scene: &Arc<Scene>, camera: Camera, settings: Settings, threads: Option<usize>) -> Arc<Snapshot> {
     assert!(settings.target_spp.is_some(), "tests render to a sample target");
-    let job = Job { scene: Arc::clone(scene), camera, settings, window: None };
+    let job = Job { scene: Arc::clone(scene), camera, settings, window: None, aovs: false };
     RenderSession::new(job, threads).expect("valid settings").wait_until_done()
 }
 

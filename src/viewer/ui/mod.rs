@@ -142,6 +142,10 @@ fn controls(ui: &mut Ui, state: &mut ViewerState, ui_state: &mut UiState) {
         for p in DISPLAY {
             param_widget(ui, p, &mut state.display);
         }
+        let denoise = egui::Checkbox::new(&mut state.denoiser.enabled, "denoise (Intel Open Image Denoise)");
+        ui.add_enabled(crate::film::denoise::AVAILABLE, denoise)
+            .on_hover_text("shows the denoised image of the latest snapshot; the accumulated image is untouched");
+        ui.label(state.denoiser.status());
         ui.checkbox(&mut state.fixed_size, "fixed resolution");
         if state.fixed_size {
             for p in Settings::table().iter().filter(|p| p.group == Group::Image) {
