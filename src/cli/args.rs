@@ -330,6 +330,10 @@ pub struct ViewArgs {
     /// Render in the window until --spp is reached, save this PNG and an EXR beside it, and exit.
     #[arg(long)]
     pub screenshot: Option<PathBuf>,
+    /// Pin this linear image (.exr or .hdr: a reference render, an earlier pin) and show
+    /// it split with the live one, instead of the scene's last pinned image.
+    #[arg(long, value_name = "IMAGE")]
+    pub compare: Option<PathBuf>,
     /// Shared render options.
     #[command(flatten)]
     pub options: RenderOptions,

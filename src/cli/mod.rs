@@ -53,6 +53,7 @@ pub fn launch(args: &args::ViewArgs) -> Result<Launch, String> {
         fixed_size: args.options.fixed_size(),
         threads: args.options.threads,
         screenshot: args.screenshot.clone(),
+        compare: args.compare.clone(),
     })
 }
 

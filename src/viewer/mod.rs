@@ -2,9 +2,13 @@
 //! converging live while the render session's workers keep adding samples.
 
 pub mod camera_control;
+pub mod compare;
 pub mod convergence;
 mod gpu;
+pub mod histogram;
+pub mod inspect;
 mod pieces;
+pub mod progress;
 pub mod state;
 mod ui;
 
@@ -30,8 +34,9 @@ const POLL: Duration = Duration::from_millis(33);
 /// final one are shown at once).
 const REFRESH: Duration = Duration::from_millis(250);
 
-/// What decides how an image is drawn: display transform, error view, selected material.
-type Look = (crate::film::tonemap::Display, bool, Option<u32>);
+/// What decides how an image is drawn: display transform, error view, selected material,
+/// before/after comparison.
+type Look = (crate::film::tonemap::Display, bool, Option<u32>, (compare::CompareView, u64));
 
 /// What the viewer opens, as the command line resolved it.
 pub struct Launch {
@@ -47,12 +52,14 @@ pub struct Launch {
     pub threads: Option<usize>,
     /// Render until the target spp, save this PNG (and an EXR beside it) and exit.
     pub screenshot: Option<PathBuf>,
+    /// Pin this linear image for before/after comparison instead of the scene's last pin.
+    pub compare: Option<PathBuf>,
 }
 
 /// Opens the viewer (on a folder of pieces: their merge as they arrive); with a screenshot
 /// path, renders to the target spp, saves and exits.
 pub fn run(launch: Launch) -> Result<(), String> {
-    let Launch { scene: path, view, file_camera, fixed_size, threads, screenshot } = launch;
+    let Launch { scene: path, view, file_camera, fixed_size, threads, screenshot, compare } = launch;
     if let Some(dir) = path.as_ref().filter(|p| p.is_dir()) {
         return pieces::run(dir.clone(), screenshot.zip(view.settings.target_spp));
     }
@@ -68,7 +75,12 @@ pub fn run(launch: Launch) -> Result<(), String> {
         Some(i) => Some(scene.file_camera(i).map_err(|e| format!("--{e}"))?),
         None => view.camera,
     };
-    let state = ViewerState::new(scene, path, view.settings, fixed_size, view.display, camera, threads)?;
+    let mut state = ViewerState::new(scene, path, view.settings, fixed_size, view.display, camera, threads)?;
+    state.compare.store = compare::PinStore::user();
+    match compare {
+        Some(file) => state.compare_with(&file)?,
+        None => state.load_pin(),
+    }
     let event_loop = EventLoop::new().map_err(|e| format!("cannot open a window: {e}"))?;
     let mut app = App::new(state, screenshot);
     event_loop.run_app(&mut app).map_err(|e| format!("the window's event loop failed: {e}"))?;
@@ -164,7 +176,7 @@ impl App {
 
     /// How the state asks images to be drawn now.
     fn look(&self) -> Look {
-        (self.state.display, self.state.show_error, self.state.selected)
+        (self.state.display, self.state.show_error, self.state.selected, self.state.compare.look())
     }
 
     /// The newest image, if it should replace the one on screen now (or be redrawn, if
@@ -187,6 +199,7 @@ impl App {
             self.state.record_convergence(&snap);
         }
         self.shown_at = Instant::now();
+        self.state.auto_expose(&snap);
         self.shown_look = self.look();
         let rgba = self.state.display_rgba(&snap);
         let size = [snap.width as usize, snap.height as usize];

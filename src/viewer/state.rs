@@ -3,7 +3,11 @@
 //! The UI edits fields freely; `sync` turns any change into a restart of accumulation.
 
 use super::camera_control::CameraController;
+use super::compare::{Compare, CompareMode, Pin, PinInfo};
 use super::convergence::{self, ConvergenceLog};
+use super::histogram::AutoExposure;
+use super::inspect::Probes;
+use super::progress::{Progress, Target, progress};
 use crate::config::ViewFile;
 use crate::film::output::write_image;
 use crate::film::tonemap::Display;
@@ -114,6 +118,16 @@ pub struct ViewerState {
     pub latencies: Vec<(Duration, bool)>,
     awaiting_first_image: bool,
     ids: Option<IdBuffer>,
+    /// Probes pinned on the image.
+    pub probes: Probes,
+    /// The pinned image and how it is compared with the live one.
+    pub compare: Compare,
+    /// What the render runs towards.
+    pub target: Target,
+    /// How auto-exposure chooses the exposure, and whether it keeps adjusting it.
+    pub auto_exposure: AutoExposure,
+    /// The estimated error of the latest image, by (generation, spp).
+    error_seen: Option<((u64, u32), Option<f64>)>,
 }
 
 impl ViewerState {
@@ -175,6 +189,11 @@ impl ViewerState {
             latencies: Vec::new(),
             awaiting_first_image: true,
             ids: None,
+            probes: Probes::default(),
+            compare: Compare::default(),
+            target: Target::default(),
+            auto_exposure: AutoExposure::default(),
+            error_seen: None,
         })
     }
 
@@ -200,9 +219,33 @@ impl ViewerState {
     }
 
     /// Sends the current scene, camera and settings to the session if anything changed
-    /// (restarting accumulation), and applies pause. Returns whether it restarted.
+    /// (restarting accumulation), and applies pause (the user's, or a time or error target
+    /// reached). Returns whether it restarted.
     pub fn sync(&mut self) -> bool {
-        self.session.set_paused(self.paused);
+        let restarted = self.send_job();
+        let reached = self.progress().is_some_and(|p| p.reached);
+        self.session.set_paused(self.paused || reached);
+        restarted
+    }
+
+    /// How far the current full-resolution job is towards the target (None while
+    /// previewing, before its first image, or without a target).
+    pub fn progress(&mut self) -> Option<Progress> {
+        let snap = self.session.snapshot().filter(|_| !self.preview)?;
+        let key = (snap.generation, snap.spp);
+        let error = match self.error_seen {
+            Some((seen, error)) if seen == key => error,
+            _ => {
+                let error = snap.relative_error();
+                self.error_seen = Some((key, error));
+                error
+            }
+        };
+        progress(&self.target, self.sent.settings.target_spp, snap.spp, snap.elapsed.as_secs_f64(), error)
+    }
+
+    /// Sends the job if it changed; returns whether it did.
+    fn send_job(&mut self) -> bool {
         let want = JobKey {
             scene: Arc::clone(&self.scene),
             camera: self.camera.camera(),
@@ -295,6 +338,8 @@ impl ViewerState {
                 self.scene = scene;
                 self.source = Some(path);
                 self.selected = None;
+                self.probes.clear();
+                self.load_pin();
             }
             Err(e) => self.error = Some(e),
         }
@@ -399,6 +444,9 @@ impl ViewerState {
                 .map(|i| convergence::error_colour(snap.pixel_relative_error(i).unwrap_or(0.0) as f32))
                 .collect();
         }
+        if let Some(rgba) = self.compare.rgba(&snap.mean, snap.width, snap.height, &self.display) {
+            return rgba;
+        }
         if self.selected.is_some() {
             self.update_material_ids(snap);
         }
@@ -451,6 +499,64 @@ impl ViewerState {
         write_image(png, snap.width, snap.height, &snap.mean, &self.display).map_err(|e| e.to_string())?;
         write_image(&png.with_extension("exr"), snap.width, snap.height, &snap.mean, &self.display)
             .map_err(|e| e.to_string())
+    }
+
+    /// Pins the latest image for before/after comparison (showing the split if only the
+    /// live image was shown) and saves it in the pin store, where the next start finds it.
+    /// The pin is kept in memory even if it cannot be saved.
+    pub fn pin_image(&mut self) -> Result<(), String> {
+        let snap = self.snapshot().ok_or("nothing rendered yet")?;
+        let mut label = convergence::label(&self.sent.settings);
+        if self.edited() {
+            label.push_str(", materials or lights edited");
+        }
+        let info =
+            PinInfo { scene: self.scene.name.clone(), spp: snap.spp, seconds: snap.elapsed.as_secs_f64(), label };
+        let pin = Pin { width: snap.width, height: snap.height, pixels: snap.mean.clone(), info };
+        if self.compare.view.mode == CompareMode::Live {
+            self.compare.view.mode = CompareMode::Split;
+        }
+        let saved = self.compare.store.as_ref().map(|store| store.save(self.source.as_deref(), &pin));
+        let file = saved.as_ref().and_then(|s| s.as_ref().ok()).cloned();
+        self.compare.set_pin(Some(pin), file);
+        saved.transpose().map(|_| ()).map_err(|e| format!("pinned in memory only: {e}"))
+    }
+
+    /// Drops the pinned image, from the pin store too.
+    pub fn unpin(&mut self) -> Result<(), String> {
+        self.compare.set_pin(None, None);
+        self.compare.store.as_ref().map_or(Ok(()), |store| store.forget(self.source.as_deref()))
+    }
+
+    /// Takes the image the pin store holds for the current scene, if any (an unreadable
+    /// one is reported and left alone).
+    pub fn load_pin(&mut self) {
+        let Some(store) = &self.compare.store else { return };
+        match store.load(self.source.as_deref()) {
+            Ok(pin) => {
+                let file = pin.as_ref().map(|_| store.path_for(self.source.as_deref()));
+                self.compare.set_pin(pin, file);
+            }
+            Err(e) => {
+                self.compare.set_pin(None, None);
+                self.error = Some(e);
+            }
+        }
+    }
+
+    /// Pins a linear image file (a reference render, an earlier pin) and shows the split.
+    pub fn compare_with(&mut self, path: &Path) -> Result<(), String> {
+        let pin = Pin::read(path)?;
+        self.compare.set_pin(Some(pin), Some(path.to_path_buf()));
+        self.compare.view.mode = CompareMode::Split;
+        Ok(())
+    }
+
+    /// Sets the exposure by auto-exposure from `snap`, if it keeps adjusting.
+    pub fn auto_expose(&mut self, snap: &Snapshot) {
+        if self.auto_exposure.continuous {
+            self.display.exposure = self.auto_exposure.adjust(self.display.exposure, &snap.mean);
+        }
     }
 
     /// Saves camera, settings and display to `view_path`.
