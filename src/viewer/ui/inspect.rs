@@ -85,7 +85,7 @@ fn divider(ui: &mut Ui, state: &mut ViewerState, snap: &Snapshot, shown: Rect) {
     let x = shown.min.x + state.compare.view.split.clamp(0.0, 1.0) * shown.width();
     let grip = Rect::from_min_max(pos2(x - 6.0, shown.min.y), pos2(x + 6.0, shown.max.y));
     let response = ui
-        .interact(grip, egui::Id::new("compare divider"), Sense::drag())
+        .interact(grip, ui.make_persistent_id("compare divider"), Sense::drag())
         .on_hover_cursor(CursorIcon::ResizeHorizontal);
     if response.dragged() {
         state.compare.view.split = (state.compare.view.split + response.drag_delta().x / shown.width()).clamp(0.0, 1.0);
