@@ -437,7 +437,8 @@ impl ViewerState {
     }
 
     /// Tonemaps a snapshot to RGBA8 for display, tinting the selected material's pixels;
-    /// or, with `show_error`, the false colour of each pixel's relative standard error.
+    /// or, with `show_error`, the false colour of each pixel's relative standard error; or,
+    /// comparing with a pin of its size, their composition (`compare::compose`).
     pub fn display_rgba(&mut self, snap: &Snapshot) -> Vec<[u8; 4]> {
         if self.show_error {
             return (0..snap.mean.len())

@@ -28,9 +28,7 @@ pub(super) fn describe(v: &PixelValues) -> String {
 /// Draws the divider, the probes and the hovered pixel's values over the image drawn in
 /// `shown`, and takes Space (flip) and the divider's drag.
 pub(super) fn overlay(ui: &mut Ui, state: &mut ViewerState, ui_state: &UiState, shown: Rect, response: &Response) {
-    if !ui.ctx().egui_wants_keyboard_input() {
-        state.compare.flip = ui.input(|i| i.key_down(Key::Space));
-    }
+    state.compare.flip = !ui.ctx().egui_wants_keyboard_input() && ui.input(|i| i.key_down(Key::Space));
     let Some(snap) = ui_state.shown.as_deref() else { return };
     divider(ui, state, snap, shown);
     let painter = ui.painter_at(shown);
@@ -62,16 +60,20 @@ pub(super) fn overlay(ui: &mut Ui, state: &mut ViewerState, ui_state: &UiState, 
         let stops = stops_difference(values.luminance, pinned);
         text.push_str(&format!("\npinned: luminance {pinned:.4}, live {stops:+.2} stops"));
     }
+    // Below right of the cursor, moved to the other side where it would leave the image
+    // area, and kept inside it.
+    let area = ui.clip_rect();
+    let painter = ui.painter();
     let galley = painter.layout_no_wrap(text, FontId::monospace(12.0), Color32::WHITE);
     let size = galley.size() + vec2(8.0, 8.0);
-    // Below right of the cursor, moved to the other side where it would leave the image.
     let mut at = pointer + vec2(16.0, 16.0);
-    if at.x + size.x > shown.max.x {
+    if at.x + size.x > area.max.x {
         at.x = pointer.x - 16.0 - size.x;
     }
-    if at.y + size.y > shown.max.y {
+    if at.y + size.y > area.max.y {
         at.y = pointer.y - 16.0 - size.y;
     }
+    at = at.clamp(area.min, (area.max - size).max(area.min));
     painter.rect_filled(Rect::from_min_size(at, size), 3.0, Color32::from_black_alpha(190));
     painter.galley(at + vec2(4.0, 4.0), galley, Color32::WHITE);
 }
