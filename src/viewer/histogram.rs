@@ -6,7 +6,10 @@
 //! black and reaches white in 8-bit sRGB) are marked on the same axis, so what lies beyond
 //! them is what the display loses. Auto-exposure sets the exposure (a display setting:
 //! the accumulated data are never touched) so that a chosen percentile of the lit pixels'
-//! luminance shows as a chosen grey, e.g. the median at 18% (middle grey).
+//! luminance shows as a chosen grey, e.g. the median at 18% (middle grey): the key value
+//! a = 0.18 of Reinhard et al., "Photographic Tone Reproduction for Digital Images" (2002),
+//! eq. 2, with a percentile in place of their log-average luminance, so that a chosen
+//! highlight (the 99th percentile to white) can be exposed for as well.
 
 use crate::film::tonemap::{Display, Tonemap};
 use crate::math::luminance;
