@@ -369,3 +369,15 @@ fn a_time_target_stops_the_render_at_the_image_of_the_spp_it_reached() {
     let resumed = state.wait_for_update(Some(&later), Duration::from_secs(30)).unwrap();
     assert!(resumed.spp > later.spp);
 }
+
+#[test]
+fn an_unreadable_compare_image_is_refused_in_one_line_before_a_window_opens() {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_lucent"))
+        .args(["view", "--width", "16", "--height", "16", "--compare", "/no/such/pinned.exr"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{err}");
+    let line = err.lines().find(|l| l.starts_with("error:")).unwrap_or_default();
+    assert!(line.contains("/no/such/pinned.exr") && !err.contains("presenting with"), "{err}");
+}

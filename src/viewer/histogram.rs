@@ -80,7 +80,7 @@ pub fn clip_points(tonemap: Tonemap) -> (Option<f32>, Option<f32>) {
 /// curve); None if no pixel is lit.
 pub fn auto_exposure(pixels: &[Vec3], percentile: f32, grey: f32) -> Option<f32> {
     let mut lit: Vec<f32> = pixels.iter().map(|&p| luminance(p)).filter(|&l| l > 0.0 && l.is_finite()).collect();
-    if lit.is_empty() || !(grey > 0.0) {
+    if lit.is_empty() || grey.is_nan() || grey <= 0.0 {
         return None;
     }
     let rank = ((percentile.clamp(0.0, 100.0) / 100.0 * lit.len() as f32).ceil() as usize).clamp(1, lit.len());
