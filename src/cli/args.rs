@@ -352,6 +352,10 @@ pub struct ViewArgs {
     /// then the denoised PNG, the noisy EXR and NAME.denoised.exr.
     #[arg(long)]
     pub denoise: bool,
+    /// Pin this linear image (.exr or .hdr: a reference render, an earlier pin) and show
+    /// it split with the live one, instead of the scene's last pinned image.
+    #[arg(long, value_name = "IMAGE")]
+    pub compare: Option<PathBuf>,
     /// Shared render options.
     #[command(flatten)]
     pub options: RenderOptions,

@@ -58,6 +58,7 @@ pub fn launch(args: &args::ViewArgs) -> Result<Launch, String> {
         threads: args.options.threads,
         screenshot: args.screenshot.clone(),
         denoise: args.denoise,
+        compare: args.compare.clone(),
     })
 }
 

@@ -64,8 +64,14 @@ impl ConvergenceLog {
     /// keeps falling as time^-1/2 from the latest point (as an unbiased estimator's does).
     pub fn time_to(&self, target: f64) -> Option<f64> {
         let [t, e] = *self.current.as_ref()?.points.last()?;
-        Some(if e <= target { 0.0 } else { t * (e / target).powi(2) - t })
+        Some(time_to_error(t, e, target))
     }
+}
+
+/// Seconds still needed to bring error `error`, reached after `seconds`, down to `target`
+/// if it falls as time^-1/2 (0 if it is already there).
+pub fn time_to_error(seconds: f64, error: f64, target: f64) -> f64 {
+    if error <= target { 0.0 } else { seconds * (error / target).powi(2) - seconds }
 }
 
 /// A short label for the settings that make curves differ: every estimator setting of the

@@ -2,10 +2,14 @@
 //! converging live while the render session's workers keep adding samples.
 
 pub mod camera_control;
+pub mod compare;
 pub mod convergence;
 pub mod denoise;
 mod gpu;
+pub mod histogram;
+pub mod inspect;
 mod pieces;
+pub mod progress;
 pub mod state;
 mod ui;
 
@@ -32,8 +36,8 @@ const POLL: Duration = Duration::from_millis(33);
 const REFRESH: Duration = Duration::from_millis(250);
 
 /// What decides how an image is drawn: display transform, error view, selected material,
-/// the denoised result shown.
-type Look = (crate::film::tonemap::Display, bool, Option<u32>, Option<(u64, u32)>);
+/// the denoised result shown, and the before/after comparison.
+type Look = (crate::film::tonemap::Display, bool, Option<u32>, Option<(u64, u32)>, (compare::CompareView, u64));
 
 /// What the viewer opens, as the command line resolved it.
 pub struct Launch {
@@ -53,12 +57,15 @@ pub struct Launch {
     pub screenshot: Option<PathBuf>,
     /// Start with the Denoise toggle on.
     pub denoise: bool,
+    /// Pin this linear image for before/after comparison instead of the scene's last pin.
+    pub compare: Option<PathBuf>,
 }
 
 /// Opens the viewer (on a folder of pieces: their merge as they arrive); with a screenshot
 /// path, renders to the target spp, saves and exits.
 pub fn run(launch: Launch) -> Result<(), String> {
-    let Launch { scene: path, view, file_camera, fixed_size, keep_dark, threads, screenshot, denoise } = launch;
+    let Launch { scene: path, view, file_camera, fixed_size, keep_dark, threads, screenshot, denoise, compare } =
+        launch;
     if let Some(dir) = path.as_ref().filter(|p| p.is_dir()) {
         if denoise {
             return Err("--denoise needs a scene: pieces carry no albedo and normal images".into());
@@ -79,6 +86,11 @@ pub fn run(launch: Launch) -> Result<(), String> {
     };
     let mut state = ViewerState::new(scene, path, view.settings, fixed_size, view.display, camera, threads)?;
     state.denoiser.enabled = denoise;
+    state.compare.store = compare::PinStore::user();
+    match compare {
+        Some(file) => state.compare_with(&file)?,
+        None => state.load_pin(),
+    }
     let event_loop = EventLoop::new().map_err(|e| format!("cannot open a window: {e}"))?;
     let mut app = App::new(state, screenshot);
     event_loop.run_app(&mut app).map_err(|e| format!("the window's event loop failed: {e}"))?;
@@ -176,7 +188,13 @@ impl App {
 
     /// How the state asks images to be drawn now.
     fn look(&self) -> Look {
-        (self.state.display, self.state.show_error, self.state.selected, self.state.denoiser.shown_key())
+        (
+            self.state.display,
+            self.state.show_error,
+            self.state.selected,
+            self.state.denoiser.shown_key(),
+            self.state.compare.look(),
+        )
     }
 
     /// The newest image, if it should replace the one on screen now (or be redrawn, if
@@ -199,6 +217,7 @@ impl App {
             self.state.record_convergence(&snap);
         }
         self.shown_at = Instant::now();
+        self.state.auto_expose(&snap);
         self.shown_look = self.look();
         let rgba = self.state.display_rgba(&snap);
         let size = [snap.width as usize, snap.height as usize];

@@ -4,8 +4,12 @@
 //! The UI edits fields freely; `sync` turns any change into a restart of accumulation.
 
 use super::camera_control::CameraController;
+use super::compare::{Compare, CompareMode, Pin, PinInfo};
 use super::convergence::{self, ConvergenceLog};
 use super::denoise::Denoiser;
+use super::histogram::AutoExposure;
+use super::inspect::Probes;
+use super::progress::{Progress, Target, progress};
 use crate::config::ViewFile;
 use crate::film::denoise::AVAILABLE as DENOISER_BUILT_IN;
 use crate::film::output::write_image;
@@ -129,6 +133,16 @@ pub struct ViewerState {
     pub latencies: Vec<(Duration, u32)>,
     awaiting_first_image: bool,
     ids: Option<IdBuffer>,
+    /// Probes pinned on the image.
+    pub probes: Probes,
+    /// The pinned image and how it is compared with the live one.
+    pub compare: Compare,
+    /// What the render runs towards.
+    pub target: Target,
+    /// How auto-exposure chooses the exposure, and whether it keeps adjusting it.
+    pub auto_exposure: AutoExposure,
+    /// The estimated error of the latest image, by (generation, spp).
+    error_seen: Option<((u64, u32), Option<f64>)>,
 }
 
 impl ViewerState {
@@ -193,6 +207,11 @@ impl ViewerState {
             latencies: Vec::new(),
             awaiting_first_image: true,
             ids: None,
+            probes: Probes::default(),
+            compare: Compare::default(),
+            target: Target::default(),
+            auto_exposure: AutoExposure::default(),
+            error_seen: None,
         })
     }
 
@@ -204,6 +223,12 @@ impl ViewerState {
             s.height = self.viewport.y.clamp(1, 16384);
         }
         s
+    }
+
+    /// Whether a reduced-resolution preview is rendered (the camera moves, or the view is
+    /// still sharpening after it stopped).
+    pub fn previewing(&self) -> bool {
+        self.moving || self.divisor > 1
     }
 
     /// The settings actually rendered: full resolution, or reduced while the camera moves
@@ -220,12 +245,36 @@ impl ViewerState {
     }
 
     /// Sends the current scene, camera and settings to the session if anything changed
-    /// (restarting accumulation), and applies pause. Returns whether it restarted.
+    /// (restarting accumulation), and applies pause (the user's, or a time or error target
+    /// reached). Returns whether it restarted.
     pub fn sync(&mut self) -> bool {
-        self.session.set_paused(self.paused);
         if self.moving {
             self.divisor = COARSEST;
         }
+        let restarted = self.send_job();
+        let reached = self.progress().is_some_and(|p| p.reached);
+        self.session.set_paused(self.paused || reached);
+        restarted
+    }
+
+    /// How far the current full-resolution job is towards the target (None while
+    /// previewing, before its first image, or without a target).
+    pub fn progress(&mut self) -> Option<Progress> {
+        let snap = self.session.snapshot().filter(|_| !self.previewing())?;
+        let key = (snap.generation, snap.spp);
+        let error = match self.error_seen {
+            Some((seen, error)) if seen == key => error,
+            _ => {
+                let error = snap.relative_error();
+                self.error_seen = Some((key, error));
+                error
+            }
+        };
+        progress(&self.target, self.sent.settings.target_spp, snap.spp, snap.elapsed.as_secs_f64(), error)
+    }
+
+    /// Sends the job if it changed; returns whether it did.
+    fn send_job(&mut self) -> bool {
         let want = JobKey {
             scene: Arc::clone(&self.scene),
             camera: self.camera.camera(),
@@ -336,6 +385,8 @@ impl ViewerState {
                 self.source = Some(path);
                 self.convergence.clear();
                 self.selected = None;
+                self.probes.clear();
+                self.load_pin();
             }
             Err(e) => self.error = Some(e),
         }
@@ -447,12 +498,17 @@ impl ViewerState {
 
     /// Tonemaps a snapshot to RGBA8 for display (its denoised image when the toggle is on and
     /// one of this job is ready), tinting the selected material's pixels; or, with
-    /// `show_error`, the false colour of each pixel's relative standard error.
+    /// `show_error`, the false colour of each pixel's relative standard error; or, comparing
+    /// with a pin of its size, their composition (`compare::compose`).
     pub fn display_rgba(&mut self, snap: &Snapshot) -> Vec<[u8; 4]> {
         if self.show_error {
             return (0..snap.mean.len())
                 .map(|i| convergence::error_colour(snap.pixel_relative_error(i).unwrap_or(0.0) as f32))
                 .collect();
+        }
+        let live = self.denoiser.shown(snap).map_or(&snap.mean, |d| &d.image);
+        if let Some(rgba) = self.compare.rgba(live, snap.width, snap.height, &self.display) {
+            return rgba;
         }
         if self.selected.is_some() {
             self.update_material_ids(snap);
@@ -519,6 +575,64 @@ impl ViewerState {
         match denoised {
             Some(d) => write(&png.with_extension("denoised.exr"), &d.image),
             None => Ok(()),
+        }
+    }
+
+    /// Pins the latest image for before/after comparison (showing the split if only the
+    /// live image was shown) and saves it in the pin store, where the next start finds it.
+    /// The pin is kept in memory even if it cannot be saved.
+    pub fn pin_image(&mut self) -> Result<(), String> {
+        let snap = self.snapshot().ok_or("nothing rendered yet")?;
+        let mut label = convergence::label(&self.sent.settings);
+        if self.edited() {
+            label.push_str(", materials or lights edited");
+        }
+        let info =
+            PinInfo { scene: self.scene.name.clone(), spp: snap.spp, seconds: snap.elapsed.as_secs_f64(), label };
+        let pin = Pin { width: snap.width, height: snap.height, pixels: snap.mean.clone(), info };
+        if self.compare.view.mode == CompareMode::Live {
+            self.compare.view.mode = CompareMode::Split;
+        }
+        let saved = self.compare.store.as_ref().map(|store| store.save(self.source.as_deref(), &pin));
+        let file = saved.as_ref().and_then(|s| s.as_ref().ok()).cloned();
+        self.compare.set_pin(Some(pin), file);
+        saved.transpose().map(|_| ()).map_err(|e| format!("pinned in memory only: {e}"))
+    }
+
+    /// Drops the pinned image, from the pin store too.
+    pub fn unpin(&mut self) -> Result<(), String> {
+        self.compare.set_pin(None, None);
+        self.compare.store.as_ref().map_or(Ok(()), |store| store.forget(self.source.as_deref()))
+    }
+
+    /// Takes the image the pin store holds for the current scene, if any (an unreadable
+    /// one is reported and left alone).
+    pub fn load_pin(&mut self) {
+        let Some(store) = &self.compare.store else { return };
+        match store.load(self.source.as_deref()) {
+            Ok(pin) => {
+                let file = pin.as_ref().map(|_| store.path_for(self.source.as_deref()));
+                self.compare.set_pin(pin, file);
+            }
+            Err(e) => {
+                self.compare.set_pin(None, None);
+                self.error = Some(e);
+            }
+        }
+    }
+
+    /// Pins a linear image file (a reference render, an earlier pin) and shows the split.
+    pub fn compare_with(&mut self, path: &Path) -> Result<(), String> {
+        let pin = Pin::read(path)?;
+        self.compare.set_pin(Some(pin), Some(path.to_path_buf()));
+        self.compare.view.mode = CompareMode::Split;
+        Ok(())
+    }
+
+    /// Sets the exposure by auto-exposure from `snap`, if it keeps adjusting.
+    pub fn auto_expose(&mut self, snap: &Snapshot) {
+        if self.auto_exposure.continuous {
+            self.display.exposure = self.auto_exposure.adjust(self.display.exposure, &snap.mean);
         }
     }
 

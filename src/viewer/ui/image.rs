@@ -1,5 +1,5 @@
-//! The central image: drawn to fit, with the camera's mouse and keyboard controls and
-//! click-to-select.
+//! The central image: drawn to fit, with the camera's mouse and keyboard controls,
+//! click-to-select and Ctrl+click to pin a probe (the inspector's overlay is `inspect`).
 
 use super::UiState;
 use crate::viewer::state::ViewerState;
@@ -46,6 +46,7 @@ pub(super) fn image(ui: &mut Ui, state: &mut ViewerState, ui_state: &mut UiState
         let uv = Rect::from_min_max(pos2(0.0, 0.0), pos2(1.0, 1.0));
         ui.painter().image(tex.id(), shown, uv, Color32::WHITE);
     }
+    super::inspect::overlay(ui, state, ui_state, shown, &response);
     let height = shown.height();
     let delta = response.drag_delta();
     let d = Vec2::new(delta.x, delta.y);
@@ -85,8 +86,11 @@ pub(super) fn image(ui: &mut Ui, state: &mut ViewerState, ui_state: &mut UiState
     if response.clicked()
         && let Some(p) = response.interact_pointer_pos().filter(|p| shown.contains(*p))
     {
-        let uv = (p - shown.min) / shown.size();
-        state.selected = state.pick(Vec2::new(uv.x, uv.y));
+        if ui.input(|i| i.modifiers.command) {
+            super::inspect::pin_probe(state, ui_state, p, shown);
+        } else {
+            state.selected = state.pick(super::inspect::uv_of(p, shown));
+        }
     }
     let now = Instant::now();
     if moved {

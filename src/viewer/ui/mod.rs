@@ -3,10 +3,11 @@
 
 mod editors;
 mod image;
+mod inspect;
+mod tools;
 mod widgets;
 
 use super::state::ViewerState;
-use crate::film::tonemap::DISPLAY;
 use crate::integrator::settings::DRT_RAY_BUDGET;
 use crate::integrator::{Integrator, Settings};
 use crate::params::Group;
@@ -28,15 +29,22 @@ pub struct UiState {
     pub frame_ms: f32,
     /// The user asked to quit (Ctrl+Q).
     pub quit: bool,
-    /// Target of the time-to-error estimate, in percent.
-    pub target_error_percent: f64,
+    /// Cached figures of the look-dev tools.
+    pub tools: tools::ToolsUi,
     last_input: Option<Instant>,
 }
 
 impl UiState {
     /// Empty UI state.
     pub fn new() -> Self {
-        Self { texture: None, shown: None, frame_ms: 0.0, quit: false, target_error_percent: 1.0, last_input: None }
+        Self {
+            texture: None,
+            shown: None,
+            frame_ms: 0.0,
+            quit: false,
+            tools: tools::ToolsUi::default(),
+            last_input: None,
+        }
     }
 }
 
@@ -127,6 +135,7 @@ fn status(ui: &mut Ui, state: &ViewerState, ui_state: &UiState) {
 fn controls(ui: &mut Ui, state: &mut ViewerState, ui_state: &mut UiState) {
     ui.heading(format!("Lucent: {}", state.scene.name));
     status(ui, state, ui_state);
+    tools::progress(ui, state);
     ui.horizontal(|ui| {
         let label = if state.paused { "Resume" } else { "Pause" };
         if ui.button(label).clicked() {
@@ -139,9 +148,7 @@ fn controls(ui: &mut Ui, state: &mut ViewerState, ui_state: &mut UiState) {
     ui.separator();
     egui::CollapsingHeader::new("Estimator").default_open(true).show(ui, |ui| estimator(ui, state));
     egui::CollapsingHeader::new("Display").default_open(true).show(ui, |ui| {
-        for p in DISPLAY {
-            param_widget(ui, p, &mut state.display);
-        }
+        tools::display(ui, state, ui_state);
         let denoise = egui::Checkbox::new(&mut state.denoiser.enabled, "denoise (Intel Open Image Denoise)");
         ui.add_enabled(crate::film::denoise::AVAILABLE, denoise)
             .on_hover_text("shows the denoised image of the latest snapshot; the accumulated image is untouched");
@@ -153,7 +160,9 @@ fn controls(ui: &mut Ui, state: &mut ViewerState, ui_state: &mut UiState) {
             }
         }
     });
-    egui::CollapsingHeader::new("Convergence").default_open(true).show(ui, |ui| convergence(ui, state, ui_state));
+    egui::CollapsingHeader::new("Compare").default_open(true).show(ui, |ui| tools::compare(ui, state, ui_state));
+    egui::CollapsingHeader::new("Inspect").default_open(true).show(ui, |ui| tools::probes(ui, state, ui_state));
+    egui::CollapsingHeader::new("Convergence").default_open(true).show(ui, |ui| convergence(ui, state));
     egui::CollapsingHeader::new("Camera").default_open(true).show(ui, |ui| camera(ui, state));
     egui::CollapsingHeader::new("Environment").default_open(true).show(ui, |ui| environment(ui, state));
     egui::CollapsingHeader::new("Files").default_open(true).show(ui, |ui| files(ui, state));
@@ -182,7 +191,7 @@ fn estimator(ui: &mut Ui, state: &mut ViewerState) {
 
 /// The estimated error against time (log-log) of this job and the previous ones, the time
 /// to a target error, and the switch to the per-pixel error view.
-fn convergence(ui: &mut Ui, state: &mut ViewerState, ui_state: &mut UiState) {
+fn convergence(ui: &mut Ui, state: &mut ViewerState) {
     let log = &state.convergence;
     let to_log = |points: &[[f64; 2]]| points.iter().map(|p| [p[0].log10(), p[1].log10()]).collect::<Vec<_>>();
     let power_of_ten = |mark: GridMark, _: &std::ops::RangeInclusive<f64>| significant(10f64.powf(mark.value));
@@ -207,9 +216,12 @@ fn convergence(ui: &mut Ui, state: &mut ViewerState, ui_state: &mut UiState) {
         });
     ui.horizontal(|ui| {
         ui.label("target error");
-        ui.add(egui::DragValue::new(&mut ui_state.target_error_percent).range(0.01..=100.0).speed(0.05).suffix(" %"));
+        let mut percent = 100.0 * state.target.error;
+        if ui.add(egui::DragValue::new(&mut percent).range(0.01..=100.0).speed(0.05).suffix(" %")).changed() {
+            state.target.error = percent / 100.0;
+        }
     });
-    ui.label(match log.time_to(ui_state.target_error_percent / 100.0) {
+    ui.label(match log.time_to(state.target.error) {
         Some(0.0) => "reached".to_string(),
         Some(t) => format!("about {t:.0} s more at this rate (error ~ time^-1/2)"),
         None => "-".to_string(),
@@ -231,7 +243,7 @@ fn camera(ui: &mut Ui, state: &mut ViewerState) {
     }
     let radius = state.scene.radius().max(1e-3);
     ui.add(egui::Slider::new(&mut state.fly_speed, radius * 1e-3..=radius * 4.0).logarithmic(true).text("fly speed"));
-    ui.label("drag: orbit, shift/middle drag: pan, wheel: dolly, right drag: look, WASD/QE: fly, click: select, Ctrl+Q: quit");
+    ui.label("drag: orbit, shift/middle drag: pan, wheel: dolly, right drag: look, WASD/QE: fly, click: select, Ctrl+click: probe, Space: flip to the pinned image, Ctrl+Q: quit");
     ui.horizontal(|ui| {
         if ui.button("Reset").clicked() {
             state.reset_camera(if state.scene.cameras.is_empty() { None } else { Some(0) });
