@@ -30,7 +30,7 @@ const POLL: Duration = Duration::from_millis(33);
 /// final one are shown at once).
 const REFRESH: Duration = Duration::from_millis(250);
 
-/// What decides how an image is drawn: display transform, error view, selected material.
+/// What decides how an image is drawn: display transform, error view, outlined material.
 type Look = (crate::film::tonemap::Display, bool, Option<u32>);
 
 /// What the viewer opens, as the command line resolved it.
@@ -68,7 +68,8 @@ pub fn run(launch: Launch) -> Result<(), String> {
         Some(i) => Some(scene.file_camera(i).map_err(|e| format!("--{e}"))?),
         None => view.camera,
     };
-    let state = ViewerState::new(scene, path, view.settings, fixed_size, view.display, camera, threads)?;
+    let mut state = ViewerState::new(scene, path, view.settings, fixed_size, view.display, camera, threads)?;
+    state.apply_edits(&view)?;
     let event_loop = EventLoop::new().map_err(|e| format!("cannot open a window: {e}"))?;
     let mut app = App::new(state, screenshot);
     event_loop.run_app(&mut app).map_err(|e| format!("the window's event loop failed: {e}"))?;
@@ -164,7 +165,7 @@ impl App {
 
     /// How the state asks images to be drawn now.
     fn look(&self) -> Look {
-        (self.state.display, self.state.show_error, self.state.selected)
+        (self.state.display, self.state.show_error, self.state.highlighted())
     }
 
     /// The newest image, if it should replace the one on screen now (or be redrawn, if
