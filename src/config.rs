@@ -228,4 +228,64 @@ mod tests {
         assert!(ViewFile::load(&path).unwrap_err().contains("intensity"));
         std::fs::remove_dir_all(&dir).unwrap();
     }
+
+    #[test]
+    fn material_and_light_edits_round_trip_and_errors_name_them() {
+        let dir = std::env::temp_dir().join(format!("lucent-view-edits-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let materials =
+            vec![Material::lambert("wall", Vec3::ONE), Material { name: "glass".into(), ..Material::default() }];
+        let light = PunctualLight {
+            name: "lamp".into(),
+            kind: crate::scene::light::PunctualKind::Point,
+            position: Vec3::ZERO,
+            direction: -Vec3::Z,
+            color: Vec3::ONE,
+            intensity: 1.0,
+            source: None,
+        };
+        let (mut m, mut l) = (materials.clone(), vec![light.clone()]);
+        m[1].roughness = 0.2;
+        m[1].alpha_mode = crate::scene::material::AlphaMode::Mask(0.3);
+        m[1].volume_factors.thickness = 1.0;
+        m[1].volume_factors.attenuation_distance = 0.1;
+        m[1].update_volume();
+        l[0].intensity = 7.25;
+        l[0].position = Vec3::new(0.1, 0.2, 0.3);
+        let mut view = ViewFile::default();
+        view.record_edits((&materials, std::slice::from_ref(&light)), (&m, &l));
+        assert_eq!((view.materials.len(), view.materials[0].index, view.lights.len()), (1, 1, 1));
+        let path = dir.join("edits.toml");
+        view.save(&path).unwrap();
+        let text = std::fs::read_to_string(&path).unwrap();
+        assert!(
+            text.contains("[[materials]]")
+                && text.contains("roughness = 0.2")
+                && text.contains("alpha_mode = \"MASK\""),
+            "{text}"
+        );
+        let loaded = ViewFile::load(&path).unwrap();
+        let (mut m2, mut l2) = (materials.clone(), vec![light.clone()]);
+        loaded.apply_edits(&mut m2, &mut l2).unwrap();
+        assert_eq!((m2, l2), (m, l), "the edits read back exactly");
+        let bad = |toml: &str| {
+            let view: ViewFile = toml::from_str(toml).unwrap();
+            view.apply_edits(&mut materials.clone(), &mut [light.clone()]).unwrap_err()
+        };
+        assert!(
+            bad("[[materials]]\nindex = 1\nname = \"gold\"\n")
+                .contains("material 1 \"gold\": the scene's material 1 is \"glass\"")
+        );
+        assert!(bad("[[materials]]\nindex = 5\nname = \"gold\"\n").contains("no such material"));
+        assert!(
+            bad("[[materials]]\nindex = 1\nname = \"glass\"\nroughness = 2.0\n")
+                .contains("roughness: 2 is not in 0..=1")
+        );
+        assert!(
+            bad("[[materials]]\nindex = 1\nname = \"glass\"\nbase_color = 0.5\n")
+                .contains("base_color: 0.5 is not a colour")
+        );
+        assert!(bad("[[lights]]\nindex = 0\nname = \"lamp\"\nshine = 1\n").contains("unknown parameter \"shine\""));
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 }

@@ -81,19 +81,17 @@ fn material(ui: &mut Ui, state: &mut ViewerState, index: usize) {
 }
 
 /// One parameter: its widget labelled with the glTF property name (help and view-file key
-/// on hover), and, for a textured one, that it is a factor and which texture it scales.
+/// on hover), and, for a textured one, a line saying it is a factor of which texture.
 fn param_row(ui: &mut Ui, p: &Param<Material>, m: &mut Material, textures: &[Texture]) {
-    let texture = (p.texture)(m);
-    let label = if texture.is_some() { format!("{} (x factor)", p.gltf) } else { p.gltf.to_string() };
     let hover = format!("{} ({} in view files)", p.help, p.key);
-    if let Some(value) = widget(ui, p.kind, (p.get)(m), &label, &hover)
+    if let Some(value) = widget(ui, p.kind, (p.get)(m), p.gltf, &hover)
         && p.kind.check(value).is_ok()
     {
         (p.set)(m, value);
     }
-    if let Some((t, channels)) = texture {
+    if let Some((t, channels)) = (p.texture)(m) {
         let name = textures.get(t.texture as usize).map_or("?", |t| &t.name);
-        ui.weak(format!("    of texture {} {name:?}, channels {channels}", t.texture));
+        ui.weak(format!("x factor of texture {} {name:?} ({channels})", t.texture));
     }
 }
 

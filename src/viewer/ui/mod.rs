@@ -45,8 +45,8 @@ pub fn draw(ui: &mut Ui, state: &mut ViewerState, ui_state: &mut UiState) {
     egui::Panel::left("controls").resizable(true).default_size(300.0).show(ui, |ui| {
         egui::ScrollArea::vertical().show(ui, |ui| controls(ui, state, ui_state));
     });
-    egui::Panel::right("editors").resizable(true).default_size(330.0).show(ui, |ui| {
-        egui::ScrollArea::vertical().show(ui, |ui| editors::editors(ui, state));
+    egui::Panel::right("editors").resizable(true).default_size(340.0).show(ui, |ui| {
+        egui::ScrollArea::vertical().auto_shrink(false).show(ui, |ui| editors::editors(ui, state));
     });
     egui::CentralPanel::no_frame().show(ui, |ui| image::image(ui, state, ui_state));
     if ui.input(|i| i.key_pressed(Key::F12)) {

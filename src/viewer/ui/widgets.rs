@@ -90,14 +90,13 @@ pub(in crate::viewer) fn colour_edit(ui: &mut Ui, value: Vec3, max: f32) -> Opti
         egui::Popup::menu(&swatch.on_hover_text("hue, saturation and value"))
             .close_behavior(egui::PopupCloseBehavior::CloseOnClickOutside)
             .show(|ui| changed |= hsv_picker(ui, &mut rgb, max));
-        for (c, name) in ["R ", "G ", "B "].iter().enumerate() {
+        for (c, name) in ["red", "green", "blue"].iter().enumerate() {
             let channel = egui::DragValue::new(&mut rgb[c])
                 .range(0.0..=max)
                 .clamp_existing_to_range(false)
                 .speed(0.002 * max.min(10.0))
-                .max_decimals(4)
-                .prefix(*name);
-            changed |= ui.add(channel).on_hover_text("linear value").changed();
+                .max_decimals(3);
+            changed |= ui.add(channel).on_hover_text(format!("{name}, linear")).changed();
         }
     });
     changed.then_some(rgb)
@@ -129,4 +128,31 @@ pub(super) fn colour_and_amount(
     let new_colour = colour_edit(ui, colour, 1.0);
     let amount_changed = ui.add(egui::Slider::new(&mut amount, range).logarithmic(true).text(label)).changed();
     (new_colour.is_some() || amount_changed).then(|| new_colour.unwrap_or(colour) * amount)
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::scene::edit::{LIGHT_PARAMS, MATERIAL_PARAMS, Section};
+
+    /// egui's colour picker shows a clipboard button (U+1F4CB) that its default fonts, without
+    /// the emoji fonts, lack (drawn as a box): the editors avoid the picker, and their own
+    /// labels use only glyphs the fonts have.
+    #[test]
+    fn the_editors_use_only_glyphs_the_default_fonts_have() {
+        let ctx = egui::Context::default();
+        let _ = ctx.run_ui(egui::RawInput::default(), |_| {});
+        let font = egui::FontId::proportional(14.0);
+        ctx.fonts_mut(|f| {
+            assert!(!f.has_glyph(&font, '\u{1F4CB}'), "the picker's clipboard glyph is missing");
+            let labels =
+                MATERIAL_PARAMS.iter().map(|p| (p.gltf, p.help)).chain(LIGHT_PARAMS.iter().map(|p| (p.gltf, p.help)));
+            for (name, help) in labels {
+                assert!(f.has_glyphs(&font, name) && f.has_glyphs(&font, help), "{name}: {help}");
+            }
+            for s in Section::MATERIAL.into_iter().chain([Section::Light]) {
+                assert!(f.has_glyphs(&font, s.title()), "{}", s.title());
+            }
+            assert!(f.has_glyphs(&font, "x factor of texture ° cd lx"));
+        });
+    }
 }

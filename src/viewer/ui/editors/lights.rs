@@ -79,7 +79,7 @@ fn light_editor(ui: &mut Ui, l: &mut PunctualLight, step: f32) {
 /// The direction as yaw (about +y, from -z towards +x) and pitch (up from the horizon), in degrees.
 fn direction(ui: &mut Ui, l: &mut PunctualLight) {
     let d = l.direction;
-    let (mut yaw, mut pitch) = (d.x.atan2(-d.z).to_degrees(), d.y.clamp(-1.0, 1.0).asin().to_degrees());
+    let (mut yaw, mut pitch) = (d.x.atan2(-d.z).to_degrees() + 0.0, d.y.clamp(-1.0, 1.0).asin().to_degrees() + 0.0);
     ui.horizontal(|ui| {
         let yaw_changed = ui.add(egui::DragValue::new(&mut yaw).speed(0.5).suffix("°").prefix("yaw ")).changed();
         let pitch_drag = egui::DragValue::new(&mut pitch).range(-90.0..=90.0).speed(0.5).suffix("°").prefix("pitch ");
