@@ -260,7 +260,7 @@ mod tests {
         let text = std::fs::read_to_string(&path).unwrap();
         assert!(
             text.contains("[[materials]]")
-                && text.contains("roughness = 0.2")
+                && text.contains("roughness = 0.2\n")
                 && text.contains("alpha_mode = \"MASK\""),
             "{text}"
         );
