@@ -407,7 +407,7 @@ fn bad_output_paths_fail_in_one_line_and_leave_nothing() {
     std::fs::write(&view, "[[materials]]\nindex = 0\nname = \"white\"\nroughness = 0.25\n").unwrap();
     let blocker = dir.join("a-file");
     std::fs::write(&blocker, b"x").unwrap();
-    for out in [dir.join("missing/box.gltf"), blocker.join("box.gltf"), dir.clone()] {
+    for out in [dir.join("missing/box.gltf"), blocker.join("box.gltf"), dir.clone(), dir.join("box.glb")] {
         let run = lucent(&["render", "--view", view.to_str().unwrap(), "--save-gltf", out.to_str().unwrap()]);
         let stderr = String::from_utf8_lossy(&run.stderr);
         assert!(!run.status.success(), "{}", out.display());
