@@ -89,7 +89,7 @@ impl VolumeFactors {
     /// The medium inside (None for a thin wall): extinction sigma_t = -ln(attenuationColor) /
     /// attenuationDistance, single-scattering albedo from multiscatterColor, g = scatterAnisotropy.
     pub fn medium(&self) -> Option<Volume> {
-        if !(self.thickness > 0.0) {
+        if self.thickness.is_nan() || self.thickness <= 0.0 {
             return None;
         }
         let attenuation = self.attenuation_color.max(Vec3::splat(1e-6));
