@@ -1,16 +1,36 @@
 //! Saved views: a camera, render settings and display settings in a small TOML file,
 //! written by the viewer and read by both the viewer and `lucent render --view`. The
 //! environment map's path is stored relative to the view file, so a view works from any
-//! folder and moves with its map.
+//! folder and moves with its map. A view also holds the edits made to the scene's
+//! materials and lights, each named by its index and name and its parameters by the keys
+//! of `scene::edit`'s tables:
+//!
+//! ```toml
+//! [[materials]]
+//! index = 3
+//! name = "Glass"
+//! roughness = 0.2
+//! attenuation_color = [0.9, 0.5, 0.5]
+//!
+//! [[lights]]
+//! index = 0
+//! name = "Lamp"
+//! intensity = 40.0
+//! ```
 
 use crate::film::output::replace_file;
 use crate::film::tonemap::Display;
 use crate::integrator::Settings;
+use crate::scene::edit::{self, Kind, LIGHT_PARAMS, MATERIAL_PARAMS, Param, ParamValue};
 use crate::scene::{
     camera::Camera,
     environment::{BUILT_IN, EnvSettings},
+    light::PunctualLight,
+    material::Material,
 };
+use glam::Vec3;
 use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
 use std::path::Path;
 
 /// Everything needed to reproduce a view of a scene.
@@ -25,6 +45,25 @@ pub struct ViewFile {
     pub display: Display,
     /// What lights the scene from outside.
     pub environment: EnvSettings,
+    /// Edits to the scene's materials.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub materials: Vec<Edit>,
+    /// Edits to the scene's punctual lights.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub lights: Vec<Edit>,
+}
+
+/// The edited parameters of one material or light: which one (its index in the scene's
+/// list, and its name, which must match), and each parameter's new value by its table key.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Edit {
+    /// Index in the scene's materials (or lights).
+    pub index: usize,
+    /// Its name, which must be the scene's.
+    pub name: String,
+    /// New values, by the keys of `scene::edit::MATERIAL_PARAMS` (or `LIGHT_PARAMS`).
+    #[serde(flatten)]
+    pub values: BTreeMap<String, toml::Value>,
 }
 
 impl ViewFile {
@@ -48,6 +87,32 @@ impl ViewFile {
         Ok(view)
     }
 
+    /// Records as edits whatever differs between the materials and lights as loaded
+    /// (`original`) and as `edited`, replacing the edits held before.
+    pub fn record_edits(&mut self, original: (&[Material], &[PunctualLight]), edited: (&[Material], &[PunctualLight])) {
+        self.materials = record(MATERIAL_PARAMS, original.0, edited.0, |m| &m.name);
+        self.lights = record(LIGHT_PARAMS, original.1, edited.1, |l| &l.name);
+    }
+
+    /// Applies the edits to `materials` and `lights`; the error is one line naming the view
+    /// file's material or light and what is wrong (no such one, an unknown parameter, a
+    /// value out of range).
+    pub fn apply_edits(&self, materials: &mut [Material], lights: &mut [PunctualLight]) -> Result<(), String> {
+        apply(MATERIAL_PARAMS, &self.materials, materials, "material", |m| &m.name)?;
+        apply(LIGHT_PARAMS, &self.lights, lights, "light", |l| &l.name)?;
+        for e in &self.lights {
+            if let Some(problem) = lights.get(e.index).and_then(edit::light_problem) {
+                return Err(format!("view file: light {} {:?}: {problem}", e.index, e.name));
+            }
+        }
+        Ok(())
+    }
+
+    /// Whether it edits materials or lights.
+    pub fn has_edits(&self) -> bool {
+        !(self.materials.is_empty() && self.lights.is_empty())
+    }
+
     /// Writes the view as TOML (via a temporary file, so a failed write leaves nothing).
     pub fn save(&self, path: &Path) -> Result<(), String> {
         let fail = |e: &dyn std::fmt::Display| format!("cannot write view file {}: {e}", path.display());
@@ -61,6 +126,86 @@ impl ViewFile {
         let text = toml::to_string_pretty(&view).map_err(|e| fail(&e))?;
         replace_file(path, |tmp| std::fs::write(tmp, &text)).map_err(|e| e.to_string())
     }
+}
+
+/// The edits that make `original` into `edited`, one per item that differs.
+fn record<T>(table: &'static [Param<T>], original: &[T], edited: &[T], name: fn(&T) -> &String) -> Vec<Edit> {
+    let mut edits = Vec::new();
+    for (index, (o, e)) in original.iter().zip(edited).enumerate() {
+        let values: BTreeMap<String, toml::Value> =
+            edit::changes(table, o, e).into_iter().map(|(p, v)| (p.key.to_string(), to_toml(v))).collect();
+        if !values.is_empty() {
+            edits.push(Edit { index, name: name(e).clone(), values });
+        }
+    }
+    edits
+}
+
+/// Applies `edits` to `items` in table order (so alphaMode is set before alphaCutoff).
+fn apply<T>(
+    table: &'static [Param<T>],
+    edits: &[Edit],
+    items: &mut [T],
+    what: &str,
+    name: fn(&T) -> &String,
+) -> Result<(), String> {
+    for e in edits {
+        let fail = |reason: String| format!("view file: {what} {} {:?}: {reason}", e.index, e.name);
+        let item = match items.get_mut(e.index) {
+            Some(item) if *name(item) == e.name => item,
+            Some(item) => return Err(fail(format!("the scene's {what} {} is {:?}", e.index, name(item)))),
+            None => return Err(fail(format!("the scene has no such {what} (it has {})", items.len()))),
+        };
+        if let Some(key) = e.values.keys().find(|k| edit::find(table, k).is_none()) {
+            let keys: Vec<&str> = table.iter().map(|p| p.key).collect();
+            return Err(fail(format!("unknown parameter {key:?} (known: {})", keys.join(", "))));
+        }
+        for p in table {
+            if let Some(value) = e.values.get(p.key) {
+                let value = from_toml(p.kind, value).map_err(|err| fail(format!("{}: {err}", p.key)))?;
+                p.try_set(item, value).map_err(fail)?;
+            }
+        }
+    }
+    Ok(())
+}
+
+/// A number as the shortest decimal that reads back as the same f32.
+fn float(x: f32) -> toml::Value {
+    let shortest: f64 = x.to_string().parse().unwrap_or(x as f64);
+    toml::Value::Float(if shortest as f32 == x { shortest } else { x as f64 })
+}
+
+fn to_toml(value: ParamValue) -> toml::Value {
+    match value {
+        ParamValue::Number(x) => float(x),
+        ParamValue::Triple(v) => toml::Value::Array(v.to_array().map(float).to_vec()),
+        ParamValue::Switch(b) => toml::Value::Boolean(b),
+        ParamValue::Choice(c) => toml::Value::String(c.into()),
+    }
+}
+
+/// A view file's value as a parameter of `kind` (its range is checked when it is set).
+fn from_toml(kind: Kind, value: &toml::Value) -> Result<ParamValue, String> {
+    let number = |v: &toml::Value| match v {
+        toml::Value::Float(x) => Some(*x as f32),
+        toml::Value::Integer(i) => Some(*i as f32),
+        _ => None,
+    };
+    let parsed = match kind {
+        Kind::Number { .. } => number(value).map(ParamValue::Number),
+        Kind::Colour { .. } | Kind::Position | Kind::Direction => match value.as_array().map(Vec::as_slice) {
+            Some([x, y, z]) => {
+                number(x).zip(number(y)).zip(number(z)).map(|((x, y), z)| ParamValue::Triple(Vec3::new(x, y, z)))
+            }
+            _ => None,
+        },
+        Kind::Switch => value.as_bool().map(ParamValue::Switch),
+        Kind::Choice(names) => {
+            value.as_str().and_then(|s| names.iter().find(|n| **n == s)).map(|n| ParamValue::Choice(n))
+        }
+    };
+    parsed.ok_or_else(|| format!("{value} is not {}", kind.range()))
 }
 
 #[cfg(test)]
@@ -86,6 +231,7 @@ mod tests {
                 intensity: 2.0,
                 rotation: -45.0,
             },
+            ..ViewFile::default()
         };
         std::fs::create_dir_all(dir.join("views")).unwrap();
         let path = dir.join("views/v.toml");
@@ -108,6 +254,66 @@ mod tests {
         assert!(err.contains("line 3, column ") && !err.contains('\n'), "{err}");
         std::fs::write(&path, "[environment]\nintensity = -1.0\n").unwrap();
         assert!(ViewFile::load(&path).unwrap_err().contains("intensity"));
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn material_and_light_edits_round_trip_and_errors_name_them() {
+        let dir = std::env::temp_dir().join(format!("lucent-view-edits-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let materials =
+            vec![Material::lambert("wall", Vec3::ONE), Material { name: "glass".into(), ..Material::default() }];
+        let light = PunctualLight {
+            name: "lamp".into(),
+            kind: crate::scene::light::PunctualKind::Point,
+            position: Vec3::ZERO,
+            direction: -Vec3::Z,
+            color: Vec3::ONE,
+            intensity: 1.0,
+            source: None,
+        };
+        let (mut m, mut l) = (materials.clone(), vec![light.clone()]);
+        m[1].roughness = 0.2;
+        m[1].alpha_mode = crate::scene::material::AlphaMode::Mask(0.3);
+        m[1].volume_factors.thickness = 1.0;
+        m[1].volume_factors.attenuation_distance = 0.1;
+        m[1].update_volume();
+        l[0].intensity = 7.25;
+        l[0].position = Vec3::new(0.1, 0.2, 0.3);
+        let mut view = ViewFile::default();
+        view.record_edits((&materials, std::slice::from_ref(&light)), (&m, &l));
+        assert_eq!((view.materials.len(), view.materials[0].index, view.lights.len()), (1, 1, 1));
+        let path = dir.join("edits.toml");
+        view.save(&path).unwrap();
+        let text = std::fs::read_to_string(&path).unwrap();
+        assert!(
+            text.contains("[[materials]]")
+                && text.contains("roughness = 0.2\n")
+                && text.contains("alpha_mode = \"MASK\""),
+            "{text}"
+        );
+        let loaded = ViewFile::load(&path).unwrap();
+        let (mut m2, mut l2) = (materials.clone(), vec![light.clone()]);
+        loaded.apply_edits(&mut m2, &mut l2).unwrap();
+        assert_eq!((m2, l2), (m, l), "the edits read back exactly");
+        let bad = |toml: &str| {
+            let view: ViewFile = toml::from_str(toml).unwrap();
+            view.apply_edits(&mut materials.clone(), &mut [light.clone()]).unwrap_err()
+        };
+        assert!(
+            bad("[[materials]]\nindex = 1\nname = \"gold\"\n")
+                .contains("material 1 \"gold\": the scene's material 1 is \"glass\"")
+        );
+        assert!(bad("[[materials]]\nindex = 5\nname = \"gold\"\n").contains("no such material"));
+        assert!(
+            bad("[[materials]]\nindex = 1\nname = \"glass\"\nroughness = 2.0\n")
+                .contains("roughness: 2 is not in 0..=1")
+        );
+        assert!(
+            bad("[[materials]]\nindex = 1\nname = \"glass\"\nbase_color = 0.5\n")
+                .contains("base_color: 0.5 is not a colour")
+        );
+        assert!(bad("[[lights]]\nindex = 0\nname = \"lamp\"\nshine = 1\n").contains("unknown parameter \"shine\""));
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }

@@ -21,7 +21,9 @@ fn render_without_nan(rel: &str) {
             kind: PunctualKind::Directional,
             position: Vec3::ZERO,
             direction: Vec3::new(-0.3, -1.0, -0.5).normalize(),
-            intensity: Vec3::splat(3.0),
+            color: Vec3::ONE,
+            intensity: 3.0,
+            source: None,
         });
     }
     let scene = Arc::new(Scene::build(desc));

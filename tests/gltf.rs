@@ -72,7 +72,7 @@ fn box_glb_has_its_twelve_triangles_and_one_material() {
 fn emissive_strength_test_reads_strengths_above_one() {
     let desc = load("EmissiveStrengthTest/glTF-Binary/EmissiveStrengthTest.glb");
     assert_eq!((triangles(&desc), desc.materials.len()), (90, 6));
-    let brightest = desc.materials.iter().map(|m| m.emissive.max_element()).fold(0.0f32, f32::max);
+    let brightest = desc.materials.iter().map(|m| m.emitted().max_element()).fold(0.0f32, f32::max);
     assert!(brightest > 1.0, "emissiveFactor x emissiveStrength exceeds 1: {brightest}");
     let scene = Scene::build(desc);
     assert!(scene.features.emissive && !scene.light_sampler.is_empty());
@@ -83,7 +83,7 @@ fn lights_punctual_lamp_has_five_point_lights_and_a_transmissive_shade() {
     let desc = load("LightsPunctualLamp/glTF/LightsPunctualLamp.gltf");
     assert_eq!((triangles(&desc), desc.materials.len(), desc.lights.len()), (6000, 3, 5));
     assert!(desc.lights.iter().all(|l| l.kind == lucent::scene::light::PunctualKind::Point));
-    let max_cd = desc.lights.iter().map(|l| l.intensity.max_element()).fold(0.0f32, f32::max);
+    let max_cd = desc.lights.iter().map(|l| l.emitted().max_element()).fold(0.0f32, f32::max);
     assert!((max_cd - 180.0).abs() < 1.0, "intensity in candela, used 1:1: {max_cd}");
     assert!(desc.warnings.iter().all(|w| !w.contains("KHR_materials_transmission")), "{:?}", desc.warnings);
     assert!(desc.materials.iter().any(|m| m.is_transmissive() && m.volume.is_none()), "a thin-walled shade");
@@ -118,7 +118,7 @@ fn the_built_in_scene_is_the_cornell_box_file() {
         assert_eq!((&a.positions, &a.indices), (&b.positions, &b.indices));
     }
     let light = builtin.materials.iter().find(|m| m.name == "light").unwrap();
-    assert!((light.emissive - Vec3::new(17.0, 12.0, 4.0)).abs().max_element() < 1e-4);
+    assert!((light.emitted() - Vec3::new(17.0, 12.0, 4.0)).abs().max_element() < 1e-4);
     let white = builtin.materials.iter().find(|m| m.name == "white").unwrap();
     assert_eq!((white.specular, white.metallic), (0.0, 0.0), "exactly Lambertian walls");
     let (_, cam) = &builtin.cameras[0];

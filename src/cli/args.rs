@@ -318,8 +318,12 @@ pub struct RenderArgs {
     pub time: Option<f64>,
     /// Output file: .png (tonemapped sRGB), .exr (linear float), or .part (a piece of the
     /// render's sums, for `lucent merge`).
-    #[arg(long, short)]
-    pub out: PathBuf,
+    #[arg(long, short, required_unless_present = "save_gltf")]
+    pub out: Option<PathBuf>,
+    /// Write the scene with the view file's material and light edits applied as glTF
+    /// (.gltf for a .gltf scene, .glb for a .glb); without --out, nothing is rendered.
+    #[arg(long, value_name = "OUT.gltf")]
+    pub save_gltf: Option<PathBuf>,
     /// Render only sample indices A to B-1 of every pixel (a piece; with --out NAME.part).
     #[arg(long, value_name = "A..B")]
     pub samples: Option<String>,

@@ -89,6 +89,8 @@ pub fn run(args: &FarmSlurmArgs) -> Result<(), String> {
             ..OpenOptions::default()
         },
     )?;
+    // The pieces apply the view file's edits: a material it names must be in the scene.
+    view.apply_edits(&mut scene.materials.clone(), &mut scene.lights.clone())?;
     view.camera = Some(match args.options.camera {
         Some(i) => scene.file_camera(i).map_err(|e| format!("--{e}"))?,
         None => view.camera.unwrap_or_else(|| scene.default_camera(s.width as f32 / s.height as f32)),

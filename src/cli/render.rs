@@ -1,14 +1,17 @@
 //! `lucent render`: open, render progressively to a sample or time budget, write the image.
 
 use super::args::RenderArgs;
+use crate::config::ViewFile;
 use crate::film::denoise::{self, denoise};
-use crate::film::output::{check_can_write, check_writable, write_image};
+use crate::film::output::{check_can_write, check_writable, replace_file, write_image};
 use crate::film::piece::{self, FORMAT, Header};
 use crate::film::window::Window;
+use crate::loader::save;
 use crate::open::{OpenOptions, open};
 use crate::render::{Job, RenderSession, Snapshot};
 use crate::scene::Scene;
 use indicatif::{ProgressBar, ProgressStyle};
+use sha2::{Digest, Sha256};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -23,7 +26,8 @@ pub fn open_scene(path: Option<&std::path::Path>, options: &OpenOptions) -> Resu
     Ok(scene)
 }
 
-/// Runs `lucent render`.
+/// Runs `lucent render`: applies the view file's edits, writes the edited scene as glTF
+/// with --save-gltf, and renders it with --out.
 pub fn run(args: &RenderArgs) -> Result<(), String> {
     if let Some(t) = args.time
         && !(t > 0.0 && t.is_finite())
@@ -33,14 +37,20 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     if args.denoise && !denoise::AVAILABLE {
         return Err(denoise::NOT_BUILT.into());
     }
-    let piece = args.out.extension().is_some_and(|e| e == "part");
+    if (args.denoise || args.aovs) && args.out.is_none() {
+        return Err("--denoise and --aovs write images: give --out a .png or .exr".into());
+    }
+    let piece = args.out.as_ref().is_some_and(|o| o.extension().is_some_and(|e| e == "part"));
     if piece && (args.denoise || args.aovs) {
         return Err("--denoise and --aovs write images, not pieces: give --out a .png or .exr".into());
     }
-    if piece {
-        check_can_write(&args.out).map_err(|e| e.to_string())?;
-    } else {
-        check_writable(&args.out).map_err(|e| e.to_string())?;
+    match &args.out {
+        Some(out) if piece => check_can_write(out).map_err(|e| e.to_string())?,
+        Some(out) => _ = check_writable(out).map_err(|e| e.to_string())?,
+        None => {}
+    }
+    if let Some(gltf) = &args.save_gltf {
+        check_can_write(gltf).map_err(|e| e.to_string())?;
     }
     for path in sidecars(args) {
         check_can_write(&path).map_err(|e| e.to_string())?;
@@ -72,14 +82,16 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         let per_pixel = target.map_or(String::new(), |n| format!(", {:.3e} per pixel at {n} spp", rays * n as f64));
         eprintln!("distribution ray tracing: up to {rays:.3e} rays per sample{per_pixel}");
     }
-    let scene = Arc::new(open_scene(
+    let scene = open_scene(
         args.scene.as_deref(),
         &OpenOptions {
             environment: view.environment.clone(),
             keep_dark: args.options.keeps_dark(),
             ..OpenOptions::default()
         },
-    )?);
+    )?;
+    let scene = Arc::new(edited(scene, &view, args.scene.as_deref(), args.save_gltf.as_deref())?);
+    let Some(out) = &args.out else { return Ok(()) };
     let camera = match args.options.camera {
         Some(i) => scene.file_camera(i).map_err(|e| format!("--{e}"))?,
         None => view.camera.unwrap_or_else(|| scene.default_camera(settings.width as f32 / settings.height as f32)),
@@ -129,12 +141,12 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     let Some(snap) = latest else {
         return Err("the time budget ended before the first pass completed: give more --time".into());
     };
-    let mut written = vec![args.out.clone()];
+    let mut written = vec![out.clone()];
     if piece {
         let film = snap.film.as_ref().ok_or("the render stopped before its samples were done")?;
         let header = Header {
             format: FORMAT,
-            scene: super::merge::scene_hash(args.scene.as_deref())?,
+            scene: scene_id(args.scene.as_deref(), &view)?,
             settings: toml::to_string(&settings.image_defining()).map_err(|e| e.to_string())?,
             camera: format!("{camera:?}"),
             display: view.display,
@@ -145,7 +157,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
             window: window.unwrap_or(Window::full(settings.width, settings.height)),
             rejected: snap.rejected,
         };
-        piece::write(&args.out, &header, film).map_err(|e| e.to_string())?;
+        piece::write(out, &header, film).map_err(|e| e.to_string())?;
     } else {
         let write = |path: &Path, pixels: &[glam::Vec3]| {
             write_image(path, snap.width, snap.height, pixels, &view.display).map_err(|e| e.to_string())
@@ -154,15 +166,15 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
             let start = Instant::now();
             let denoised = denoise(&snap.mean, snap.aovs.as_ref(), snap.width, snap.height)?;
             eprintln!("denoised in {:.0} ms", start.elapsed().as_secs_f64() * 1e3);
-            write(&args.out, &denoised)?;
-            write(&beside(&args.out, "noisy"), &snap.mean)?;
+            write(out, &denoised)?;
+            write(&beside(out, "noisy"), &snap.mean)?;
         } else {
-            write(&args.out, &snap.mean)?;
+            write(out, &snap.mean)?;
         }
         if args.aovs {
             let aovs = snap.aovs.as_ref().ok_or("the render kept no AOVs")?;
-            write(&beside(&args.out, "albedo"), &aovs.albedo)?;
-            write(&beside(&args.out, "normal"), &aovs.normal)?;
+            write(&beside(out, "albedo"), &aovs.albedo)?;
+            write(&beside(out, "normal"), &aovs.normal)?;
         }
         written.extend(sidecars(args));
     }
@@ -178,14 +190,44 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
 /// The files written beside --out: with --denoise the noisy image (NAME.noisy.exr), then
 /// with --aovs the albedo and normal images (NAME.albedo.exr, NAME.normal.exr).
 fn sidecars(args: &RenderArgs) -> Vec<PathBuf> {
-    let noisy = args.denoise.then(|| beside(&args.out, "noisy"));
-    let aovs = if args.aovs { vec![beside(&args.out, "albedo"), beside(&args.out, "normal")] } else { Vec::new() };
+    let Some(out) = &args.out else { return Vec::new() };
+    let noisy = args.denoise.then(|| beside(out, "noisy"));
+    let aovs = if args.aovs { vec![beside(out, "albedo"), beside(out, "normal")] } else { Vec::new() };
     noisy.into_iter().chain(aovs).collect()
 }
 
 /// NAME.`what`.exr for --out NAME.png or NAME.exr.
 fn beside(out: &Path, what: &str) -> PathBuf {
     out.with_extension(format!("{what}.exr"))
+}
+
+/// `scene` with the view file's material and light edits applied (sharing its BVH), after
+/// writing it as glTF to `save_gltf` if asked (the file at `path`, or the built-in scene's,
+/// with the edits patched in).
+fn edited(scene: Scene, view: &ViewFile, path: Option<&Path>, save_gltf: Option<&Path>) -> Result<Scene, String> {
+    let (mut materials, mut lights) = (scene.materials.clone(), scene.lights.clone());
+    view.apply_edits(&mut materials, &mut lights)?;
+    if let Some(out) = save_gltf {
+        let edits = save::Edits { original: (&scene.materials, &scene.lights), edited: (&materials, &lights) };
+        let bytes = save::patched(path, edits, out)?;
+        replace_file(out, |tmp| std::fs::write(tmp, &bytes)).map_err(|e| e.to_string())?;
+        println!("wrote {}", out.display());
+    }
+    Ok(if view.has_edits() { scene.with_edits(materials, lights) } else { scene })
+}
+
+/// What a piece's header names its scene by: the hash of the file and its sidecars, and of
+/// the view file's material and light edits if it has any (pieces of differently edited
+/// scenes must not merge).
+fn scene_id(path: Option<&Path>, view: &ViewFile) -> Result<String, String> {
+    let hash = super::merge::scene_hash(path)?;
+    if !view.has_edits() {
+        return Ok(hash);
+    }
+    let edits = ViewFile { materials: view.materials.clone(), lights: view.lights.clone(), ..ViewFile::default() };
+    let text = toml::to_string(&edits).map_err(|e| e.to_string())?;
+    let digest: String = Sha256::digest(text.as_bytes()).iter().map(|b| format!("{b:02x}")).collect();
+    Ok(format!("{hash} edited {digest}"))
 }
 
 fn style(template: &str) -> ProgressStyle {

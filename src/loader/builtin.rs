@@ -10,3 +10,8 @@ const CORNELL_BOX: &[u8] = include_bytes!("../../assets/cornell-box.gltf");
 pub fn cornell_box() -> SceneDesc {
     super::gltf::load_slice(CORNELL_BOX, "cornell-box").expect("the embedded Cornell box is valid glTF")
 }
+
+/// The glTF file the built-in Cornell box is read from.
+pub fn cornell_box_gltf() -> &'static [u8] {
+    CORNELL_BOX
+}

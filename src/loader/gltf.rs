@@ -12,12 +12,12 @@
 use super::limits::{self, Attributes, Limits, PrimitiveShape, format_bytes};
 use super::resources::{self, Encoded, Tally};
 use super::{LoadError, Refusal, graph};
-use crate::medium::{Volume, phase::MAX_G};
+use crate::medium::phase::MAX_G;
 use crate::scene::{
     MeshDesc, SceneDesc,
     camera::Camera,
-    light::{PunctualKind, PunctualLight},
-    material::{AlphaMode, Material, TexRef},
+    light::{Cone, LightSource, PunctualKind, PunctualLight},
+    material::{AlphaMode, Material, TexRef, VolumeFactors},
     texture::{Image, Texture, Wrap},
 };
 use glam::{Affine2, DMat3, DMat4, DVec3, Vec2, Vec3, Vec4};
@@ -517,7 +517,7 @@ fn convert(doc: &Document, buffers: &[buffer::Data], images: Vec<Image>, name: S
             }
         }
         if let Some(light) = node.light() {
-            lights.push(convert_light(&light, world));
+            lights.push(convert_light(&light, &node, parent));
         }
         if let Some(camera) = node.camera() {
             match camera.projection() {
@@ -548,7 +548,13 @@ fn convert(doc: &Document, buffers: &[buffer::Data], images: Vec<Image>, name: S
         .into_iter()
         .map(|(mesh, p)| MeshDesc { positions: p.into_iter().map(relative).collect(), ..mesh })
         .collect();
-    desc.lights = lights.into_iter().map(|(l, p)| PunctualLight { position: relative(p), ..l }).collect();
+    let centred = DMat4::from_translation(-centre);
+    let centre_light = |(l, p): (PunctualLight, DVec3)| PunctualLight {
+        position: relative(p),
+        source: l.source.map(|s| LightSource { parent: centred * s.parent, ..s }),
+        ..l
+    };
+    desc.lights = lights.into_iter().map(centre_light).collect();
     desc.cameras = cameras.into_iter().map(|(n, c, p)| (n, Camera { position: relative(p), ..c })).collect();
     if desc.meshes.iter().any(|m| m.material == default_material) {
         desc.materials.push(Material { name: "glTF default".into(), ..Material::default() });
@@ -605,8 +611,15 @@ fn convert_texture(t: gltf::Texture) -> Texture {
         WrappingMode::ClampToEdge => Wrap::ClampToEdge,
     };
     let s = t.sampler();
+    let image = t.source();
+    let uri_name = match image.source() {
+        gltf::image::Source::Uri { uri, .. } if !uri.starts_with("data:") => uri.rsplit('/').next(),
+        _ => None,
+    };
+    let name = t.name().or(image.name()).or(uri_name).map_or_else(|| format!("texture {}", t.index()), str::to_owned);
     Texture {
-        image: t.source().index() as u32,
+        name,
+        image: image.index() as u32,
         wrap: [wrap(s.wrap_s()), wrap(s.wrap_t())],
         nearest: s.mag_filter() == Some(gltf::texture::MagFilter::Nearest),
     }
@@ -666,18 +679,18 @@ fn factor(v: &Value, key: &str, default: f32) -> f32 {
     v.get(key).and_then(Value::as_f64).map_or(default, |f| f as f32)
 }
 
-/// The medium of KHR_materials_volume (extinction sigma_t = -ln(attenuationColor) /
-/// attenuationDistance) and KHR_materials_volume_scatter (single-scatter albedo from
-/// multiscatterColor, Henyey-Greenstein g = scatterAnisotropy). Out-of-range values are
-/// clamped with a warning naming the material: colours to [0, 1], |g| to 0.99, and a
-/// distance that is not positive and finite means no attenuation.
-fn convert_volume(
+/// KHR_materials_volume and KHR_materials_volume_scatter's factors, clamped into their
+/// ranges with a warning naming the material: colours to [0, 1], |g| to MAX_G, and a
+/// distance that is not positive and finite means no attenuation (infinite). The medium
+/// they make is `VolumeFactors::medium`'s: extinction sigma_t = -ln(attenuationColor) /
+/// attenuationDistance, single-scatter albedo from multiscatterColor, Henyey-Greenstein g =
+/// scatterAnisotropy.
+fn volume_factors(
     name: &str,
-    color: [f32; 3],
-    distance: f32,
+    v: &gltf::material::Volume,
     scatter: Option<&Value>,
     warnings: &mut Warnings,
-) -> Volume {
+) -> VolumeFactors {
     let colour = |key: &str, c: Vec3, warnings: &mut Warnings| {
         let clamped = c.clamp(Vec3::ZERO, Vec3::ONE);
         if clamped != c || !c.is_finite() {
@@ -685,24 +698,30 @@ fn convert_volume(
         }
         if c.is_finite() { clamped } else { Vec3::ZERO }
     };
-    let attenuation = colour("attenuationColor", Vec3::from(color), warnings).max(Vec3::splat(1e-6));
-    let sigma_t = if distance.is_finite() && distance > 0.0 {
-        -attenuation.map(f32::ln) / distance
-    } else {
-        if !distance.is_infinite() {
-            warnings
-                .add(format!("material \"{name}\": attenuationDistance {distance} is not positive: no attenuation"));
-        }
-        Vec3::ZERO
+    let thickness = v.thickness_factor();
+    // A thin wall's attenuation and scattering are kept (they are the file's) but not used.
+    let mut unused = Warnings::default();
+    let warnings = if thickness > 0.0 { warnings } else { &mut unused };
+    let mut factors = VolumeFactors {
+        thickness: if thickness.is_nan() { 0.0 } else { thickness },
+        attenuation_color: colour("attenuationColor", Vec3::from(v.attenuation_color()), warnings),
+        ..VolumeFactors::default()
     };
-    let Some(scatter) = scatter else { return Volume::absorbing(sigma_t) };
+    let distance = v.attenuation_distance();
+    if distance.is_finite() && distance > 0.0 {
+        factors.attenuation_distance = distance;
+    } else if !distance.is_infinite() {
+        warnings.add(format!("material \"{name}\": attenuationDistance {distance} is not positive: no attenuation"));
+    }
+    let Some(scatter) = scatter else { return factors };
     let array = |key: &str| {
         scatter
             .get(key)
             .and_then(Value::as_array)
             .map(|a| Vec3::from_array([0, 1, 2].map(|i| a.get(i).and_then(Value::as_f64).unwrap_or(0.0) as f32)))
     };
-    let multiscatter = colour("multiscatterColor", array("multiscatterColor").unwrap_or(Vec3::ZERO), warnings);
+    factors.multiscatter_color =
+        colour("multiscatterColor", array("multiscatterColor").unwrap_or(Vec3::ZERO), warnings);
     let g = scatter.get("scatterAnisotropy").and_then(Value::as_f64).unwrap_or(0.0) as f32;
     let g = if g.is_finite() { g } else { 0.0 };
     if g.abs() > MAX_G {
@@ -711,7 +730,8 @@ fn convert_volume(
             g.clamp(-MAX_G, MAX_G)
         ));
     }
-    Volume { sigma_t, albedo: Volume::single_scatter_albedo(multiscatter), g: g.clamp(-MAX_G, MAX_G), grid: None }
+    factors.scatter_anisotropy = g.clamp(-MAX_G, MAX_G);
+    factors
 }
 
 fn convert_material(m: &gltf::Material, texture_count: usize, warnings: &mut Warnings) -> Material {
@@ -722,6 +742,7 @@ fn convert_material(m: &gltf::Material, texture_count: usize, warnings: &mut War
     }
     let mut mat = Material {
         name: m.name().map_or_else(|| format!("material {}", m.index().unwrap_or(0)), str::to_owned),
+        file_index: m.index().map(|i| i as u32),
         base_color: Vec3::new(r, g, b),
         alpha: a,
         alpha_mode: match m.alpha_mode() {
@@ -734,7 +755,8 @@ fn convert_material(m: &gltf::Material, texture_count: usize, warnings: &mut War
         metallic: pbr.metallic_factor(),
         roughness: pbr.roughness_factor(),
         metallic_roughness_tex: texture_ref(pbr.metallic_roughness_texture(), warnings),
-        emissive: Vec3::from(m.emissive_factor()) * m.emissive_strength().unwrap_or(1.0),
+        emissive: Vec3::from(m.emissive_factor()),
+        emissive_strength: m.emissive_strength().unwrap_or(1.0),
         emissive_tex: texture_ref(m.emissive_texture(), warnings),
         ior: m.ior().unwrap_or(1.5),
         ..Material::default()
@@ -754,10 +776,10 @@ fn convert_material(m: &gltf::Material, texture_count: usize, warnings: &mut War
         mat.transmission = t.transmission_factor();
         mat.transmission_tex = texture_ref(t.transmission_texture(), warnings);
     }
-    if let Some(v) = m.volume().filter(|v| v.thickness_factor() > 0.0) {
+    if let Some(v) = m.volume() {
         let scatter = m.extension_value("KHR_materials_volume_scatter");
-        mat.volume =
-            Some(convert_volume(&mat.name, v.attenuation_color(), v.attenuation_distance(), scatter, warnings));
+        mat.volume_factors = volume_factors(&mat.name, &v, scatter, warnings);
+        mat.volume = mat.volume_factors.medium();
     }
     if let Some(d) = m.extension_value("KHR_materials_dispersion") {
         let dispersion = factor(d, "dispersion", 0.0);
@@ -978,15 +1000,18 @@ fn triangulate(mode: Mode, idx: &[u32]) -> Vec<u32> {
     }
 }
 
-/// A KHR_lights_punctual light placed by its node. Photometric intensities are used 1:1
-/// as radiometric ones: 1 cd is radiant intensity 1 W/sr and 1 lx is irradiance 1 W/m^2,
-/// on the same scale as emissive radiance (as the Khronos sample viewer does); `range` is ignored.
-fn convert_light(light: &gltf::khr_lights_punctual::Light, world: DMat4) -> (PunctualLight, DVec3) {
+/// A KHR_lights_punctual light placed by `node`, whose parent's world transform is
+/// `parent`. Photometric intensities are used 1:1 as radiometric ones: 1 cd is radiant
+/// intensity 1 W/sr and 1 lx is irradiance 1 W/m^2, on the same scale as emissive radiance
+/// (as the Khronos sample viewer does); `range` is ignored. The light's position and its
+/// source's parent transform are in the file's world space until the scene is centred.
+fn convert_light(light: &gltf::khr_lights_punctual::Light, node: &gltf::Node, parent: DMat4) -> (PunctualLight, DVec3) {
+    let world = parent * DMat4::from_cols_array_2d(&node.transform().matrix().map(|c| c.map(f64::from)));
     let kind = match light.kind() {
         Kind::Directional => PunctualKind::Directional,
         Kind::Point => PunctualKind::Point,
         Kind::Spot { inner_cone_angle, outer_cone_angle } => {
-            PunctualKind::Spot { cos_inner: inner_cone_angle.cos(), cos_outer: outer_cone_angle.cos() }
+            PunctualKind::Spot(Cone::new(inner_cone_angle, outer_cone_angle))
         }
     };
     let light = PunctualLight {
@@ -994,7 +1019,9 @@ fn convert_light(light: &gltf::khr_lights_punctual::Light, world: DMat4) -> (Pun
         kind,
         position: Vec3::ZERO,
         direction: world.transform_vector3(-DVec3::Z).normalize_or(-DVec3::Z).as_vec3(),
-        intensity: Vec3::from(light.color()) * light.intensity(),
+        color: Vec3::from(light.color()),
+        intensity: light.intensity(),
+        source: Some(LightSource { light: light.index() as u32, node: node.index() as u32, parent }),
     };
     (light, world.transform_point3(DVec3::ZERO))
 }

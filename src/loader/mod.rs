@@ -6,6 +6,7 @@ mod graph;
 pub mod limits;
 pub mod media;
 mod resources;
+pub mod save;
 pub mod sidecar;
 mod tangents;
 

@@ -7,22 +7,56 @@
 use super::{Scene, Surface};
 use crate::math::{distribution::AliasTable, luminance, warp};
 use crate::spectrum::Spectrum;
-use glam::{Vec2, Vec3};
+use glam::{DMat4, Vec2, Vec3};
+
+/// A spot light's cone: the glTF angles from its axis, and their cosines, which the falloff uses.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Cone {
+    inner: f32,
+    outer: f32,
+    cos_inner: f32,
+    cos_outer: f32,
+}
+
+impl Cone {
+    /// The cone of innerConeAngle `inner` and outerConeAngle `outer` (radians).
+    pub fn new(inner: f32, outer: f32) -> Self {
+        Self { inner, outer, cos_inner: inner.cos(), cos_outer: outer.cos() }
+    }
+
+    /// innerConeAngle: full intensity inside it (radians).
+    pub fn inner(&self) -> f32 {
+        self.inner
+    }
+
+    /// outerConeAngle: no light outside it (radians).
+    pub fn outer(&self) -> f32 {
+        self.outer
+    }
+}
 
 /// The kind of a KHR_lights_punctual light.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum PunctualKind {
     /// Point light: `intensity` is radiant intensity (glTF candela, used 1:1) in all directions.
     Point,
-    /// Spot light with the glTF smooth cone falloff between the two cosines.
-    Spot {
-        /// Cosine of the inner cone angle (full intensity inside).
-        cos_inner: f32,
-        /// Cosine of the outer cone angle (no light outside).
-        cos_outer: f32,
-    },
+    /// Spot light with the glTF smooth cone falloff between the two angles.
+    Spot(Cone),
     /// Directional light: `intensity` is irradiance (glTF lux, used 1:1) on a facing surface.
     Directional,
+}
+
+/// Where a punctual light came from in its glTF file, to write edits back.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LightSource {
+    /// Index in the file's KHR_lights_punctual lights.
+    pub light: u32,
+    /// The node that places it.
+    pub node: u32,
+    /// From the node's parent's space to the scene's space (the file's world space moved as
+    /// the loader centres the scene): a position p in the scene is the local translation
+    /// `parent.inverse() * p`.
+    pub parent: DMat4,
 }
 
 /// A punctual light placed in the world.
@@ -36,17 +70,26 @@ pub struct PunctualLight {
     pub position: Vec3,
     /// Unit direction the light shines along (the node's -z axis).
     pub direction: Vec3,
-    /// Colour times intensity (linear RGB).
-    pub intensity: Vec3,
+    /// Linear RGB colour (glTF color).
+    pub color: Vec3,
+    /// glTF intensity: candela for point and spot lights, lux for directional ones.
+    pub intensity: f32,
+    /// Where it is in its file (None: not from a file).
+    pub source: Option<LightSource>,
 }
 
 impl PunctualLight {
+    /// Colour times intensity: radiant intensity (or irradiance, for directional lights) per channel.
+    pub fn emitted(&self) -> Vec3 {
+        self.color * self.intensity
+    }
+
     /// Radiant intensity (or irradiance, for directional) towards unit direction `w`
     /// leaving the light. Spot falloff follows the KHR_lights_punctual reference formula.
     pub fn intensity_towards(&self, w: Vec3) -> Spectrum {
-        let intensity = Spectrum::from_illuminant_rgb(self.intensity);
+        let intensity = Spectrum::from_illuminant_rgb(self.emitted());
         match self.kind {
-            PunctualKind::Spot { cos_inner, cos_outer } => {
+            PunctualKind::Spot(Cone { cos_inner, cos_outer, .. }) => {
                 let scale = 1.0 / (cos_inner - cos_outer).max(1e-4);
                 let a = ((w.dot(self.direction) - cos_outer) * scale).clamp(0.0, 1.0);
                 intensity * a * a
@@ -58,10 +101,10 @@ impl PunctualLight {
     /// Total emitted power (luminance-weighted), used to choose lights.
     /// `scene_radius` sizes the disc a directional light covers.
     pub fn power(&self, scene_radius: f32) -> f32 {
-        let i = luminance(self.intensity);
+        let i = luminance(self.emitted());
         match self.kind {
             PunctualKind::Point => 4.0 * std::f32::consts::PI * i,
-            PunctualKind::Spot { cos_inner, cos_outer } => {
+            PunctualKind::Spot(Cone { cos_inner, cos_outer, .. }) => {
                 2.0 * std::f32::consts::PI * i * (1.0 - 0.5 * (cos_inner + cos_outer))
             }
             PunctualKind::Directional => std::f32::consts::PI * scene_radius * scene_radius * i,
@@ -229,7 +272,7 @@ impl Scene {
                 let light = &self.lights[i as usize];
                 let (wi, radiance, target) = match light.kind {
                     PunctualKind::Directional => {
-                        (-light.direction, Spectrum::from_illuminant_rgb(light.intensity), LightTarget::Infinite)
+                        (-light.direction, Spectrum::from_illuminant_rgb(light.emitted()), LightTarget::Infinite)
                     }
                     _ => {
                         let to_light = light.position - p;
@@ -308,10 +351,12 @@ mod tests {
     fn spot_falloff_is_full_inside_and_zero_outside() {
         let l = PunctualLight {
             name: "s".into(),
-            kind: PunctualKind::Spot { cos_inner: 0.9, cos_outer: 0.8 },
+            kind: PunctualKind::Spot(Cone::new(0.9f32.acos(), 0.8f32.acos())),
             position: Vec3::ZERO,
             direction: -Vec3::Z,
-            intensity: Vec3::ONE,
+            color: Vec3::ONE,
+            intensity: 1.0,
+            source: None,
         };
         assert_eq!(l.intensity_towards(-Vec3::Z), Spectrum::ONE);
         assert_eq!(l.intensity_towards(Vec3::X), Spectrum::ZERO);

@@ -56,11 +56,63 @@ pub enum AlphaMode {
     Blend,
 }
 
+/// KHR_materials_volume and _volume_scatter as the file gives them (clamped into their
+/// ranges): what a material's homogeneous medium is made from (`VolumeFactors::medium`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct VolumeFactors {
+    /// thicknessFactor: 0 is a thin wall, anything above it a volume (Lucent traces the
+    /// real geometry, so only whether it is positive matters).
+    pub thickness: f32,
+    /// attenuationColor: the colour white light becomes after `attenuation_distance`, in [0, 1].
+    pub attenuation_color: Vec3,
+    /// attenuationDistance, positive; infinite (the glTF default) for no attenuation.
+    pub attenuation_distance: f32,
+    /// KHR_materials_volume_scatter multiscatterColor in [0, 1] (black: no scattering).
+    pub multiscatter_color: Vec3,
+    /// KHR_materials_volume_scatter scatterAnisotropy, the Henyey-Greenstein g in [-MAX_G, MAX_G].
+    pub scatter_anisotropy: f32,
+}
+
+impl Default for VolumeFactors {
+    fn default() -> Self {
+        Self {
+            thickness: 0.0,
+            attenuation_color: Vec3::ONE,
+            attenuation_distance: f32::INFINITY,
+            multiscatter_color: Vec3::ZERO,
+            scatter_anisotropy: 0.0,
+        }
+    }
+}
+
+impl VolumeFactors {
+    /// The medium inside (None for a thin wall): extinction sigma_t = -ln(attenuationColor) /
+    /// attenuationDistance, single-scattering albedo from multiscatterColor, g = scatterAnisotropy.
+    pub fn medium(&self) -> Option<Volume> {
+        if self.thickness.is_nan() || self.thickness <= 0.0 {
+            return None;
+        }
+        let attenuation = self.attenuation_color.max(Vec3::splat(1e-6));
+        let distance = self.attenuation_distance;
+        let sigma_t =
+            if distance.is_finite() && distance > 0.0 { -attenuation.map(f32::ln) / distance } else { Vec3::ZERO };
+        // A black multiscatter colour does not scatter (the inversion's 6.2e-6 at 0 would).
+        let albedo = match self.multiscatter_color {
+            Vec3::ZERO => Vec3::ZERO,
+            colour => Volume::single_scatter_albedo(colour),
+        };
+        Some(Volume { sigma_t, albedo, g: self.scatter_anisotropy, grid: None })
+    }
+}
+
 /// A glTF material as the renderer uses it.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Material {
     /// Name from the file (or generated).
     pub name: String,
+    /// Its index in the glTF file's materials (None: not from a file's materials, such as
+    /// glTF's default material for primitives without one).
+    pub file_index: Option<u32>,
     /// Linear base colour factor (RGB).
     pub base_color: Vec3,
     /// Base colour alpha factor.
@@ -81,8 +133,11 @@ pub struct Material {
     pub normal_tex: Option<TexRef>,
     /// Scale of the normal map's X and Y.
     pub normal_scale: f32,
-    /// Emitted radiance: emissiveFactor x KHR_materials_emissive_strength, linear, used 1:1.
+    /// emissiveFactor (linear RGB); the emitted radiance is this times `emissive_strength`
+    /// (`Material::emitted`), used 1:1.
     pub emissive: Vec3,
+    /// KHR_materials_emissive_strength emissiveStrength (1 without the extension).
+    pub emissive_strength: f32,
     /// sRGB emissive texture, multiplied with `emissive`.
     pub emissive_tex: Option<TexRef>,
     /// KHR_materials_specular specularFactor (strength of the dielectric layer).
@@ -102,9 +157,11 @@ pub struct Material {
     pub transmission: f32,
     /// Texture whose R channel scales `transmission`.
     pub transmission_tex: Option<TexRef>,
-    /// KHR_materials_volume (and _volume_scatter): the medium inside the surface, with
-    /// extinction from attenuationColor and attenuationDistance; None for thin-walled materials.
+    /// The medium inside the surface, None for thin-walled materials: the one
+    /// `volume_factors` make (`Material::update_volume`), or a density grid from the media sidecar.
     pub volume: Option<Volume>,
+    /// KHR_materials_volume and _volume_scatter as the file gives them.
+    pub volume_factors: VolumeFactors,
     /// KHR_materials_clearcoat factor.
     pub clearcoat: f32,
     /// Texture whose R channel scales `clearcoat`.
@@ -152,6 +209,7 @@ impl Default for Material {
     fn default() -> Self {
         Self {
             name: "default".into(),
+            file_index: None,
             base_color: Vec3::ONE,
             alpha: 1.0,
             alpha_mode: AlphaMode::Opaque,
@@ -163,6 +221,7 @@ impl Default for Material {
             normal_tex: None,
             normal_scale: 1.0,
             emissive: Vec3::ZERO,
+            emissive_strength: 1.0,
             emissive_tex: None,
             specular: 1.0,
             specular_tex: None,
@@ -173,6 +232,7 @@ impl Default for Material {
             transmission: 0.0,
             transmission_tex: None,
             volume: None,
+            volume_factors: VolumeFactors::default(),
             clearcoat: 0.0,
             clearcoat_tex: None,
             clearcoat_roughness: 0.0,
@@ -255,9 +315,22 @@ impl Material {
         self.is_volume() && self.volume.is_some_and(|v| v.scatters())
     }
 
+    /// Emitted radiance (linear RGB) before the emissive texture: emissiveFactor x emissiveStrength.
+    pub fn emitted(&self) -> Vec3 {
+        self.emissive * self.emissive_strength
+    }
+
     /// Whether the material emits light.
     pub fn is_emissive(&self) -> bool {
-        self.emissive.max_element() > 0.0
+        self.emitted().max_element() > 0.0
+    }
+
+    /// Makes `volume` the medium of `volume_factors`, unless it is a density grid (which the
+    /// media sidecar gives, not the file's factors).
+    pub fn update_volume(&mut self) {
+        if self.volume.is_none_or(|v| v.grid.is_none()) {
+            self.volume = self.volume_factors.medium();
+        }
     }
 
     /// Whether rays may pass through some of its points without interacting (alpha), or
@@ -381,8 +454,8 @@ impl Material {
     /// Emitted radiance at a surface point (the same from every direction on the front side).
     pub fn emission(&self, textures: &[Texture], images: &[Image], surface: &Surface) -> Spectrum {
         Spectrum::from_illuminant_rgb(match self.emissive_tex {
-            Some(t) => self.emissive * t.sample(textures, images, &surface.uv, ColorSpace::Srgb).xyz(),
-            None => self.emissive,
+            Some(t) => self.emitted() * t.sample(textures, images, &surface.uv, ColorSpace::Srgb).xyz(),
+            None => self.emitted(),
         })
     }
 }

@@ -2,6 +2,7 @@
 //! set of effects it contains, which switches the integrator's per-bounce work.
 
 pub mod camera;
+pub mod edit;
 pub mod environment;
 pub mod geometry;
 pub mod light;
@@ -575,7 +576,7 @@ fn build_light_sampler(
             let tex = m.emissive_tex.map_or(Vec3::ONE, |t| {
                 images[textures[t.texture as usize].image as usize].mean(ColorSpace::Srgb).truncate()
             });
-            luminance(m.emissive * tex)
+            luminance(m.emitted() * tex)
         })
         .collect();
     let mut candidates = Vec::new();

@@ -25,8 +25,10 @@ pub enum Wrap {
 }
 
 /// A glTF texture: an image plus its sampler.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 pub struct Texture {
+    /// Name for the user: the texture's, its image's, or its image file's.
+    pub name: String,
     /// Index into the scene's images.
     pub image: u32,
     /// Wrap along u and v.
@@ -131,7 +133,7 @@ mod tests {
     #[test]
     fn bilinear_hits_texel_centres_and_blends_between_them() {
         let images = checker();
-        let t = Texture { image: 0, wrap: [Wrap::Repeat; 2], nearest: false };
+        let t = Texture { name: "t".into(), image: 0, wrap: [Wrap::Repeat; 2], nearest: false };
         assert_eq!(t.sample(&images, Vec2::new(0.25, 0.25), ColorSpace::Linear).x, 0.0);
         assert_eq!(t.sample(&images, Vec2::new(0.75, 0.25), ColorSpace::Linear).x, 1.0);
         assert!((t.sample(&images, Vec2::new(0.5, 0.25), ColorSpace::Linear).x - 0.5).abs() < 1e-6);

@@ -35,7 +35,7 @@ const POLL: Duration = Duration::from_millis(33);
 /// final one are shown at once).
 const REFRESH: Duration = Duration::from_millis(250);
 
-/// What decides how an image is drawn: display transform, error view, selected material,
+/// What decides how an image is drawn: display transform, error view, outlined material,
 /// the denoised result shown, and the before/after comparison.
 type Look = (crate::film::tonemap::Display, bool, Option<u32>, Option<(u64, u32)>, (compare::CompareView, u64));
 
@@ -85,6 +85,7 @@ pub fn run(launch: Launch) -> Result<(), String> {
         None => view.camera,
     };
     let mut state = ViewerState::new(scene, path, view.settings, fixed_size, view.display, camera, threads)?;
+    state.apply_edits(&view)?;
     state.denoiser.enabled = denoise;
     state.compare.store = compare::PinStore::user();
     match compare {
@@ -191,7 +192,7 @@ impl App {
         (
             self.state.display,
             self.state.show_error,
-            self.state.selected,
+            self.state.highlighted(),
             self.state.denoiser.shown_key(),
             self.state.compare.look(),
         )

@@ -12,9 +12,10 @@ use super::inspect::Probes;
 use super::progress::{Progress, Target, progress};
 use crate::config::ViewFile;
 use crate::film::denoise::AVAILABLE as DENOISER_BUILT_IN;
-use crate::film::output::write_image;
+use crate::film::output::{replace_file, write_image};
 use crate::film::tonemap::Display;
 use crate::integrator::Settings;
+use crate::loader::save;
 use crate::open::{OpenOptions, Stage, open};
 use crate::render::{Job, RenderSession, Snapshot};
 use crate::scene::{
@@ -97,6 +98,11 @@ pub struct ViewerState {
     pub paused: bool,
     /// Selected material, if any.
     pub selected: Option<u32>,
+    /// Whether the selection is outlined in the image (the editor hides it while the
+    /// material's widgets are hovered or in use, so that edits can be judged).
+    pub show_selection: bool,
+    /// Where "Save glTF" writes the scene with its edits.
+    pub gltf_path: String,
     /// The last error, shown until dismissed.
     pub error: Option<String>,
     /// Why the current settings cannot start (shown beside them until they can).
@@ -175,7 +181,6 @@ impl ViewerState {
         Ok(Self {
             original: (scene.materials.clone(), scene.lights.clone()),
             scene,
-            source,
             session,
             sent,
             settings,
@@ -188,6 +193,8 @@ impl ViewerState {
             divisor: 1,
             paused: false,
             selected: None,
+            show_selection: true,
+            gltf_path: save::default_path(source.as_deref()).display().to_string(),
             error: None,
             settings_error: None,
             convergence: ConvergenceLog::default(),
@@ -202,6 +209,7 @@ impl ViewerState {
             environment_dir,
             startup_map,
             environment_map,
+            source,
             loading: None,
             restarted: Instant::now(),
             latencies: Vec::new(),
@@ -382,6 +390,7 @@ impl ViewerState {
                     self.screenshot_dir = default_screenshot_dir(Some(&path)).to_string_lossy().into_owned();
                 }
                 self.scene = scene;
+                self.gltf_path = save::default_path(Some(&path)).display().to_string();
                 self.source = Some(path);
                 self.convergence.clear();
                 self.selected = None;
@@ -465,6 +474,33 @@ impl ViewerState {
         self.scene.materials != self.original.0 || self.scene.lights != self.original.1
     }
 
+    /// The materials and lights as the file has them.
+    pub fn original(&self) -> (&[Material], &[PunctualLight]) {
+        (&self.original.0, &self.original.1)
+    }
+
+    /// Makes the materials and lights the file's with a view file's edits applied; on
+    /// error (a material it names is not in the scene, a bad value) nothing changes.
+    pub fn apply_edits(&mut self, view: &ViewFile) -> Result<(), String> {
+        let (mut materials, mut lights) = self.original.clone();
+        view.apply_edits(&mut materials, &mut lights)?;
+        self.edit(|m, l| {
+            *m = materials;
+            *l = lights;
+        });
+        Ok(())
+    }
+
+    /// Writes the scene's file with the edited materials and lights to `gltf_path` (through
+    /// a temporary file, so a failure leaves nothing); returns where it went.
+    pub fn save_gltf(&self) -> Result<PathBuf, String> {
+        let out = PathBuf::from(self.gltf_path.trim());
+        let edits = save::Edits { original: self.original(), edited: (&self.scene.materials, &self.scene.lights) };
+        let bytes = save::patched(self.source.as_deref(), edits, &out)?;
+        replace_file(&out, |tmp| std::fs::write(tmp, &bytes)).map_err(|e| e.to_string())?;
+        Ok(out)
+    }
+
     /// Puts the camera back to the file's camera `index`, or the default view.
     pub fn reset_camera(&mut self, index: Option<usize>) {
         let aspect = self.aspect();
@@ -496,8 +532,14 @@ impl ViewerState {
         self.denoiser.poll(snap.as_ref())
     }
 
+    /// The selected material, while it is outlined.
+    pub fn highlighted(&self) -> Option<u32> {
+        self.selected.filter(|_| self.show_selection)
+    }
+
     /// Tonemaps a snapshot to RGBA8 for display (its denoised image when the toggle is on and
-    /// one of this job is ready), tinting the selected material's pixels; or, with
+    /// one of this job is ready), outlining the selected material's pixels (those with a
+    /// neighbour, or the image's edge, outside it; its inside is left as it renders); or, with
     /// `show_error`, the false colour of each pixel's relative standard error; or, comparing
     /// with a pin of its size, their composition (`compare::compose`).
     pub fn display_rgba(&mut self, snap: &Snapshot) -> Vec<[u8; 4]> {
@@ -510,22 +552,34 @@ impl ViewerState {
         if let Some(rgba) = self.compare.rgba(live, snap.width, snap.height, &self.display) {
             return rgba;
         }
-        if self.selected.is_some() {
+        let selected = self.highlighted();
+        if selected.is_some() {
             self.update_material_ids(snap);
         }
-        let mask = self.selected.zip(self.ids.as_ref().map(|b| &b.ids));
-        let pixels = self.denoiser.shown(snap).map_or(&snap.mean, |d| &d.image);
-        pixels
+        let mask = selected.zip(self.ids.as_ref().map(|b| &b.ids));
+        let (w, h) = (snap.width as usize, snap.height as usize);
+        let edge = |m: u32, ids: &[u32], i: usize| {
+            let (x, y) = (i % w, i / w);
+            let outside = |x: usize, y: usize| ids.get(y * w + x) != Some(&m);
+            x == 0
+                || y == 0
+                || x + 1 == w
+                || y + 1 == h
+                || outside(x - 1, y)
+                || outside(x + 1, y)
+                || outside(x, y - 1)
+                || outside(x, y + 1)
+        };
+        self.denoiser
+            .shown(snap)
+            .map_or(&snap.mean, |d| &d.image)
             .iter()
             .enumerate()
-            .map(|(i, &p)| {
-                let [r, g, b] = self.display.to_srgb8(p);
-                match &mask {
-                    Some((m, ids)) if ids.get(i) == Some(m) => {
-                        let tint = |c: u8, t: f32| (c as f32 * 0.6 + t * 0.4) as u8;
-                        [tint(r, 255.0), tint(g, 170.0), tint(b, 40.0), 255]
-                    }
-                    _ => [r, g, b, 255],
+            .map(|(i, &p)| match &mask {
+                Some((m, ids)) if ids.get(i) == Some(m) && edge(*m, ids, i) => [255, 170, 40, 255],
+                _ => {
+                    let [r, g, b] = self.display.to_srgb8(p);
+                    [r, g, b, 255]
                 }
             })
             .collect()
@@ -636,21 +690,24 @@ impl ViewerState {
         }
     }
 
-    /// Saves camera, settings and display to `view_path`.
+    /// Saves camera, settings, display, environment and the material and light edits to `view_path`.
     pub fn save_view(&self) -> Result<(), String> {
-        let view = ViewFile {
+        let mut view = ViewFile {
             camera: Some(self.camera.camera()),
             settings: self.effective_settings(),
             display: self.display,
             environment: self.environment.clone(),
+            ..ViewFile::default()
         };
+        view.record_edits(self.original(), (&self.scene.materials, &self.scene.lights));
         view.save(Path::new(&self.view_path))
     }
 
-    /// Loads camera, settings, display and environment from `view_path` (the resolution
-    /// keeps following the window unless it is fixed).
+    /// Loads camera, settings, display, environment and the material and light edits from
+    /// `view_path` (the resolution keeps following the window unless it is fixed).
     pub fn load_view(&mut self) -> Result<(), String> {
         let view = ViewFile::load(Path::new(&self.view_path))?;
+        self.apply_edits(&view)?;
         let aspect = self.aspect();
         if let Some(cam) = view.camera {
             self.camera = controller_for(&self.scene, Some(cam), aspect);

@@ -1,110 +1,193 @@
-//! The right panel: the selected material's parameters, its medium, and the lights.
+//! The right panel: a list of the scene's materials, every parameter of the chosen one
+//! grouped and named as glTF names them (`scene::edit::MATERIAL_PARAMS`), its medium, the
+//! punctual lights, and saving the edited scene as glTF.
 
-use super::widgets::colour_and_amount;
+mod lights;
+
+use super::widgets::colour_edit;
 use crate::medium::{Volume, phase::MAX_G};
+use crate::scene::edit::{Kind, MATERIAL_PARAMS, Param, ParamValue, Section};
+use crate::scene::material::Material;
+use crate::scene::texture::Texture;
 use crate::viewer::state::ViewerState;
-use egui::Ui;
+use egui::{Color32, Ui};
 use glam::Vec3;
 
-/// The medium inside a volume, in glTF's terms: attenuation colour at a distance (the
-/// extinction), multiscatter colour (the albedo) and the Henyey-Greenstein g. Values are
-/// written back only when a widget changed, so an unedited volume never restarts the render.
-fn volume_editor(ui: &mut Ui, v: &mut Volume) {
-    ui.label("volume (KHR_materials_volume, _volume_scatter)");
-    if v.grid.is_some() {
-        grid_editor(ui, v);
-        return;
+pub(super) fn editors(ui: &mut Ui, state: &mut ViewerState) {
+    let area = ui.clip_rect();
+    material_list(ui, state);
+    if let Some(index) = state.selected {
+        material(ui, state, index as usize);
     }
-    let mut distance = 1.0 / v.sigma_t.max_element().max(1e-6);
-    let mut attenuation = (-v.sigma_t * distance).exp().to_array();
-    let mut multiscatter = Volume::multiscatter_colour(v.albedo).to_array();
-    let mut g = v.g;
+    lights::lights(ui, state);
+    ui.separator();
+    save(ui, state);
+    // The selection's outline hides while the panel is in use, so that edits can be judged.
+    let (hover, press, down) = ui.input(|i| (i.pointer.hover_pos(), i.pointer.press_origin(), i.pointer.any_down()));
+    let in_use = hover.is_some_and(|p| area.contains(p)) || (down && press.is_some_and(|p| area.contains(p)));
+    state.show_selection = !(in_use || egui::Popup::is_any_open(ui.ctx()));
+}
+
+/// Every material by index and name, to choose one without clicking in the image.
+fn material_list(ui: &mut Ui, state: &mut ViewerState) {
+    ui.heading("Materials");
+    let name = |i: u32| format!("{i}: {}", state.scene.materials[i as usize].name);
+    let shown = state.selected.map_or_else(|| "none (click the image or choose)".into(), name);
+    let mut selected = state.selected;
+    egui::ComboBox::from_id_salt("materials").selected_text(shown).width(ui.available_width()).show_ui(ui, |ui| {
+        ui.selectable_value(&mut selected, None, "none");
+        for i in 0..state.scene.materials.len() as u32 {
+            ui.selectable_value(&mut selected, Some(i), name(i));
+        }
+    });
+    state.selected = selected;
+}
+
+/// The parameters of material `index`, a section per glTF extension.
+fn material(ui: &mut Ui, state: &mut ViewerState, index: usize) {
+    let mut m = state.scene.materials[index].clone();
+    let textures = state.scene.textures.clone();
+    ui.label(match m.file_index {
+        Some(i) => format!("materials[{i}] of the file"),
+        None => "glTF's default material (saved as a new material)".into(),
+    });
+    if let Some(measured) = &m.measured {
+        ui.colored_label(
+            Color32::LIGHT_BLUE,
+            format!("measured BRDF {} (replaces the parameters below)", measured.path.display()),
+        );
+    }
+    let defaults = Material::default();
+    for section in Section::MATERIAL {
+        let params: Vec<&Param<Material>> =
+            MATERIAL_PARAMS.iter().filter(|p| p.section == section && (p.applies)(&m)).collect();
+        let used = params.iter().any(|p| (p.get)(&m) != (p.get)(&defaults));
+        egui::CollapsingHeader::new(section.title())
+            .id_salt(("section", index, section.title()))
+            .default_open(section == Section::Core || used)
+            .show(ui, |ui| {
+                for p in params {
+                    param_row(ui, p, &mut m, &textures);
+                }
+                if section == Section::Volume && m.volume.is_some_and(|v| v.grid.is_some()) {
+                    grid_editor(ui, &mut m);
+                }
+            });
+    }
+    state.edit(|materials, _| materials[index] = m);
+    if ui.button("Deselect").clicked() {
+        state.selected = None;
+    }
+}
+
+/// One parameter: its widget labelled with the glTF property name (help and view-file key
+/// on hover), and, for a textured one, a line saying it is a factor of which texture.
+fn param_row(ui: &mut Ui, p: &Param<Material>, m: &mut Material, textures: &[Texture]) {
+    let hover = format!("{} ({} in view files)", p.help, p.key);
+    if let Some(value) = widget(ui, p.kind, (p.get)(m), p.gltf, &hover)
+        && p.kind.check(value).is_ok()
+    {
+        (p.set)(m, value);
+    }
+    if let Some((t, channels)) = (p.texture)(m) {
+        let name = textures.get(t.texture as usize).map_or("?", |t| &t.name);
+        ui.weak(format!("x factor of texture {} {name:?} ({channels})", t.texture));
+    }
+}
+
+/// The widget for a value of `kind`; the new value if it was changed.
+fn widget(ui: &mut Ui, kind: Kind, value: ParamValue, label: &str, hover: &str) -> Option<ParamValue> {
+    ui.horizontal(|ui| match (kind, value) {
+        (Kind::Number { min, max }, ParamValue::Number(mut x)) if max.is_finite() && max - min <= 10.0 => {
+            let slider = egui::Slider::new(&mut x, min..=max).clamping(egui::SliderClamping::Edits).text(label);
+            ui.add(slider).on_hover_text(hover).changed().then_some(ParamValue::Number(x))
+        }
+        (Kind::Number { min, max }, ParamValue::Number(x)) => number(ui, (min, max), x, label, hover),
+        (Kind::Colour { max }, ParamValue::Triple(c)) => {
+            let new = colour_edit(ui, c, max);
+            ui.label(label).on_hover_text(hover);
+            new.map(ParamValue::Triple)
+        }
+        (Kind::Switch, ParamValue::Switch(mut on)) => {
+            ui.checkbox(&mut on, label).on_hover_text(hover).changed().then_some(ParamValue::Switch(on))
+        }
+        (Kind::Choice(names), ParamValue::Choice(mut chosen)) => {
+            let before = chosen;
+            egui::ComboBox::from_id_salt(label).selected_text(chosen).show_ui(ui, |ui| {
+                for n in names {
+                    ui.selectable_value(&mut chosen, n, *n);
+                }
+            });
+            ui.label(label).on_hover_text(hover);
+            (chosen != before).then_some(ParamValue::Choice(chosen))
+        }
+        _ => None,
+    })
+    .inner
+}
+
+/// A number of a long range (an infinite maximum, glTF's "absent", gets a checkbox).
+fn number(ui: &mut Ui, (min, max): (f32, f32), mut x: f32, label: &str, hover: &str) -> Option<ParamValue> {
     let mut changed = false;
-    ui.horizontal(|ui| {
-        changed |= ui.color_edit_button_rgb(&mut attenuation).changed();
-        ui.label("attenuation colour");
-    });
-    let range = 1e-4..=1e4;
-    changed |= ui.add(egui::Slider::new(&mut distance, range).logarithmic(true).text("attenuation distance")).changed();
-    ui.horizontal(|ui| {
-        changed |= ui.color_edit_button_rgb(&mut multiscatter).changed();
-        ui.label("multiscatter colour");
-    });
-    changed |= ui.add(egui::Slider::new(&mut g, -MAX_G..=MAX_G).text("anisotropy g")).changed();
-    if changed {
-        let attenuation = Vec3::from(attenuation).clamp(Vec3::splat(1e-6), Vec3::ONE);
-        *v = Volume {
-            sigma_t: -attenuation.map(f32::ln) / distance,
-            albedo: Volume::single_scatter_albedo(Vec3::from(multiscatter)),
-            g,
-            ..*v
-        };
+    if max == f32::INFINITY {
+        let mut infinite = x == f32::INFINITY;
+        if ui.checkbox(&mut infinite, "inf").on_hover_text("absent from the file: infinite").changed() {
+            x = if infinite { f32::INFINITY } else { 1.0 };
+            changed = true;
+        }
+        if infinite {
+            ui.label(label).on_hover_text(hover);
+            return changed.then_some(ParamValue::Number(x));
+        }
     }
+    let speed = (x.abs() * 0.01).max(0.001);
+    let drag = egui::DragValue::new(&mut x).range(min..=max.min(f32::MAX)).clamp_existing_to_range(false).speed(speed);
+    changed |= ui.add(drag).on_hover_text(hover).changed();
+    ui.label(label).on_hover_text(hover);
+    changed.then_some(ParamValue::Number(x))
 }
 
 /// A density grid's medium (from `SCENE.media.toml`): its density scale (the grey
-/// extinction where the grid's value is 1), albedo and g.
-fn grid_editor(ui: &mut Ui, v: &mut Volume) {
+/// extinction where the grid's value is 1), albedo and g. These are the sidecar's, so
+/// "Save glTF" does not write them.
+fn grid_editor(ui: &mut Ui, m: &mut Material) {
+    let Some(v) = &mut m.volume else { return };
+    ui.label("density grid from the media sidecar (not saved to glTF)");
     let mut density = v.sigma_t.x;
-    let mut albedo = v.albedo.to_array();
     let mut g = v.g;
-    let mut changed = false;
-    changed |= ui.add(egui::Slider::new(&mut density, 0.0..=1e4).logarithmic(true).text("density scale")).changed();
-    ui.horizontal(|ui| {
-        changed |= ui.color_edit_button_rgb(&mut albedo).changed();
-        ui.label("albedo");
-    });
+    let mut changed =
+        ui.add(egui::Slider::new(&mut density, 0.0..=1e4).logarithmic(true).text("density scale")).changed();
+    let albedo = colour_edit(ui, v.albedo, 1.0);
+    changed |= albedo.is_some();
     changed |= ui.add(egui::Slider::new(&mut g, -MAX_G..=MAX_G).text("anisotropy g")).changed();
     if changed {
-        *v = Volume {
-            sigma_t: Vec3::splat(density.max(0.0)),
-            albedo: Vec3::from(albedo).clamp(Vec3::ZERO, Vec3::ONE),
-            g,
-            ..*v
-        };
+        *v = Volume { sigma_t: Vec3::splat(density.max(0.0)), albedo: albedo.unwrap_or(v.albedo), g, ..*v };
     }
 }
 
-pub(super) fn editors(ui: &mut Ui, state: &mut ViewerState) {
-    if let Some(index) = state.selected {
-        let mut m = state.scene.materials[index as usize].clone();
-        ui.heading(format!("Material: {}", m.name));
-        if let Some(measured) = &m.measured {
-            ui.label(format!("measured BRDF {} (replaces the parameters below)", measured.path.display()));
-        }
-        let mut base = m.base_color.to_array();
-        ui.horizontal(|ui| {
-            ui.color_edit_button_rgb(&mut base);
-            ui.label("base colour");
-        });
-        m.base_color = Vec3::from(base);
-        ui.add(egui::Slider::new(&mut m.metallic, 0.0..=1.0).text("metallic"));
-        ui.add(egui::Slider::new(&mut m.roughness, 0.0..=1.0).text("roughness"));
-        ui.add(egui::Slider::new(&mut m.specular, 0.0..=1.0).text("specular"));
-        ui.add(egui::Slider::new(&mut m.ior, 1.0..=3.0).text("IOR"));
-        if m.volume.is_some() && m.transmission > 0.0 {
-            ui.add(egui::Slider::new(&mut m.dispersion, 0.0..=2.0).text("dispersion (20 / Abbe number)"));
-        }
-        if let Some(e) = colour_and_amount(ui, m.emissive, "emission", 0.0..=1000.0) {
-            m.emissive = e;
-        }
-        if let Some(v) = &mut m.volume {
-            volume_editor(ui, v);
-        }
-        state.edit(|materials, _| materials[index as usize] = m);
-        if ui.button("Deselect").clicked() {
-            state.selected = None;
-        }
-        ui.separator();
-    }
-    for i in 0..state.scene.lights.len() {
-        let light = &state.scene.lights[i];
-        ui.label(format!("Light: {} ({:?})", light.name, light.kind));
-        if let Some(intensity) = colour_and_amount(ui, light.intensity, "intensity", 0.0..=1e6) {
-            state.edit(|_, lights| lights[i].intensity = intensity);
-        }
-    }
+/// "Reset to file", and "Save glTF" with its path and result.
+fn save(ui: &mut Ui, state: &mut ViewerState) {
     if state.edited() && ui.button("Reset to file").clicked() {
         state.reset_edits();
+    }
+    ui.label("save the scene with these materials and lights");
+    let result_id = ui.scope_id().with("saved");
+    ui.horizontal(|ui| {
+        ui.text_edit_singleline(&mut state.gltf_path).on_hover_text(
+            "a .gltf beside its buffers and images (its URIs follow it elsewhere), or a .glb for a .glb",
+        );
+        if ui.button("Save glTF").clicked() {
+            let result = state.save_gltf().map(|p| format!("saved {}", p.display()));
+            ui.data_mut(|d| d.insert_temp(result_id, result));
+        }
+    });
+    match ui.data(|d| d.get_temp::<Result<String, String>>(result_id)) {
+        Some(Ok(saved)) => {
+            ui.label(saved);
+        }
+        Some(Err(e)) => {
+            ui.colored_label(Color32::from_rgb(255, 90, 90), e);
+        }
+        None => {}
     }
 }

@@ -55,11 +55,9 @@ pub fn draw(ui: &mut Ui, state: &mut ViewerState, ui_state: &mut UiState) {
     egui::Panel::left("controls").resizable(true).default_size(330.0).size_range(260.0..=520.0).show(ui, |ui| {
         egui::ScrollArea::vertical().auto_shrink([false; 2]).show(ui, |ui| controls(ui, state, ui_state));
     });
-    if state.selected.is_some() || !state.scene.lights.is_empty() {
-        egui::Panel::right("editors").resizable(true).default_size(260.0).show(ui, |ui| {
-            egui::ScrollArea::vertical().show(ui, |ui| editors::editors(ui, state));
-        });
-    }
+    egui::Panel::right("editors").resizable(true).default_size(340.0).show(ui, |ui| {
+        egui::ScrollArea::vertical().auto_shrink(false).show(ui, |ui| editors::editors(ui, state));
+    });
     egui::CentralPanel::no_frame().show(ui, |ui| image::image(ui, state, ui_state));
     notices(ui, state);
     if ui.input(|i| i.key_pressed(Key::F12)) {

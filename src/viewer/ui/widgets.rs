@@ -72,6 +72,48 @@ pub(in crate::viewer) fn param_widget<T>(ui: &mut Ui, p: &Param<T>, target: &mut
     }
 }
 
+/// A linear RGB colour: a swatch (shown in sRGB, clamped) that opens a hue, saturation and
+/// value picker, and a drag value per linear channel in 0..=`max`. Edits only the copy it is
+/// given and returns it only if a widget changed it, so a value that is merely shown is
+/// never rewritten. egui's own colour picker is not used: its numeric row has a clipboard
+/// button (U+1F4CB) that egui's default fonts, without the emoji fonts, draw as a box, and
+/// it edits 8-bit sRGB.
+pub(in crate::viewer) fn colour_edit(ui: &mut Ui, value: Vec3, max: f32) -> Option<Vec3> {
+    let mut rgb = value;
+    let mut changed = false;
+    ui.horizontal(|ui| {
+        let size = egui::vec2(ui.spacing().interact_size.y * 1.6, ui.spacing().interact_size.y);
+        let (rect, swatch) = ui.allocate_exact_size(size, egui::Sense::click());
+        let shown = rgb.clamp(Vec3::ZERO, Vec3::ONE);
+        ui.painter().rect_filled(rect, 2.0, egui::Color32::from(egui::Rgba::from_rgb(shown.x, shown.y, shown.z)));
+        ui.painter().rect_stroke(rect, 2.0, ui.visuals().widgets.inactive.fg_stroke, egui::StrokeKind::Inside);
+        egui::Popup::menu(&swatch.on_hover_text("hue, saturation and value"))
+            .close_behavior(egui::PopupCloseBehavior::CloseOnClickOutside)
+            .show(|ui| changed |= hsv_picker(ui, &mut rgb, max));
+        for (c, name) in ["red", "green", "blue"].iter().enumerate() {
+            let channel = egui::DragValue::new(&mut rgb[c])
+                .range(0.0..=max)
+                .clamp_existing_to_range(false)
+                .speed(0.002 * max.min(10.0))
+                .max_decimals(3);
+            changed |= ui.add(channel).on_hover_text(format!("{name}, linear")).changed();
+        }
+    });
+    changed.then_some(rgb)
+}
+
+/// Hue, saturation and value (of the linear colour) as three sliders.
+fn hsv_picker(ui: &mut Ui, rgb: &mut Vec3, max: f32) -> bool {
+    let mut hsv = egui::ecolor::Hsva::from_rgb(rgb.to_array());
+    let mut changed = ui.add(egui::Slider::new(&mut hsv.h, 0.0..=1.0).text("hue")).changed();
+    changed |= ui.add(egui::Slider::new(&mut hsv.s, 0.0..=1.0).text("saturation")).changed();
+    changed |= ui.add(egui::Slider::new(&mut hsv.v, 0.0..=max.min(100.0)).text("value")).changed();
+    if changed {
+        *rgb = Vec3::from(hsv.to_rgb()).clamp(Vec3::ZERO, Vec3::splat(max));
+    }
+    changed
+}
+
 /// Colour and magnitude of an RGB quantity, edited separately; returns the new value only
 /// if a widget changed (so values that do not round-trip exactly never trigger a restart).
 pub(super) fn colour_and_amount(
@@ -81,12 +123,36 @@ pub(super) fn colour_and_amount(
     range: std::ops::RangeInclusive<f32>,
 ) -> Option<Vec3> {
     let peak = value.max_element();
-    let mut colour = if peak > 0.0 { (value / peak).to_array() } else { [1.0; 3] };
+    let colour = if peak > 0.0 { value / peak } else { Vec3::ONE };
     let mut amount = peak;
-    let mut changed = false;
-    ui.horizontal(|ui| {
-        changed |= ui.color_edit_button_rgb(&mut colour).changed();
-        changed |= ui.add(egui::Slider::new(&mut amount, range).logarithmic(true).text(label)).changed();
-    });
-    changed.then(|| Vec3::from(colour) * amount)
+    let new_colour = colour_edit(ui, colour, 1.0);
+    let amount_changed = ui.add(egui::Slider::new(&mut amount, range).logarithmic(true).text(label)).changed();
+    (new_colour.is_some() || amount_changed).then(|| new_colour.unwrap_or(colour) * amount)
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::scene::edit::{LIGHT_PARAMS, MATERIAL_PARAMS, Section};
+
+    /// egui's colour picker shows a clipboard button (U+1F4CB) that its default fonts, without
+    /// the emoji fonts, lack (drawn as a box): the editors avoid the picker, and their own
+    /// labels use only glyphs the fonts have.
+    #[test]
+    fn the_editors_use_only_glyphs_the_default_fonts_have() {
+        let ctx = egui::Context::default();
+        let _ = ctx.run_ui(egui::RawInput::default(), |_| {});
+        let font = egui::FontId::proportional(14.0);
+        ctx.fonts_mut(|f| {
+            assert!(!f.has_glyph(&font, '\u{1F4CB}'), "the picker's clipboard glyph is missing");
+            let labels =
+                MATERIAL_PARAMS.iter().map(|p| (p.gltf, p.help)).chain(LIGHT_PARAMS.iter().map(|p| (p.gltf, p.help)));
+            for (name, help) in labels {
+                assert!(f.has_glyphs(&font, name) && f.has_glyphs(&font, help), "{name}: {help}");
+            }
+            for s in Section::MATERIAL.into_iter().chain([Section::Light]) {
+                assert!(f.has_glyphs(&font, s.title()), "{}", s.title());
+            }
+            assert!(f.has_glyphs(&font, "x factor of texture ° cd lx"));
+        });
+    }
 }
