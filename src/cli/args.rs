@@ -347,6 +347,9 @@ pub enum BenchKind {
     /// Samples/s, rays/s, BVH build time and peak memory on a fixed suite of scenes, each a
     /// `lucent render` process (with --baseline, against another build, alternating).
     Throughput,
+    /// Relative MSE at equal time of uniform sampling and noise thresholds, and what the
+    /// threshold's checks cost: table, CSV and maps of samples per pixel in --out.
+    Adaptive,
 }
 
 /// A strategy of the convergence study.
@@ -422,7 +425,7 @@ pub struct BenchArgs {
     /// Image width and height in pixels [default: 256; 64 for convergence].
     #[arg(long)]
     pub size: Option<u32>,
-    /// Convergence: seconds of rendering per strategy.
+    /// Convergence and adaptive: seconds of rendering per strategy or variant.
     #[arg(long)]
     pub budget: Option<f64>,
     /// Convergence: output folder for convergence.{csv,md,png,svg}.
@@ -437,6 +440,9 @@ pub struct BenchArgs {
     /// Convergence: strategies to run, comma-separated [default: all].
     #[arg(long, value_enum, value_delimiter = ',')]
     pub strategies: Vec<StrategyName>,
+    /// Adaptive: noise thresholds to compare with uniform sampling, comma-separated.
+    #[arg(long, value_delimiter = ',', allow_negative_numbers = true, default_values_t = [0.05, 0.02])]
+    pub thresholds: Vec<f32>,
     /// Convergence: maximum depth of every strategy (DRT costs branching^depth).
     #[arg(long, default_value_t = 3)]
     pub max_depth: u32,

@@ -125,7 +125,7 @@ pub fn run(args: &ConvergenceArgs) -> Result<(), String> {
 
 /// The reference image: the given EXR, or a long MIS + Sobol render cached in the output
 /// folder under a name that records what it depends on.
-fn reference(args: &ConvergenceArgs, scene: &Scene, base: Settings) -> Result<Vec<Vec3>, String> {
+pub(super) fn reference(args: &ConvergenceArgs, scene: &Scene, base: Settings) -> Result<Vec<Vec3>, String> {
     let path = match &args.reference {
         Some(p) => p.clone(),
         None => args.out.join(format!(
@@ -178,7 +178,9 @@ fn scene_copy(scene: &Scene) -> Scene {
     scene.with_edits(scene.materials.clone(), scene.lights.clone())
 }
 
-fn row(strategy: &str, snap: &Snapshot, reference: &[Vec3]) -> Row {
+/// The errors of `snap` against `reference`: RMSE, and relative MSE with 0.01 added to the
+/// squared reference.
+pub(super) fn row(strategy: &str, snap: &Snapshot, reference: &[Vec3]) -> Row {
     let (mut se, mut rel) = (0.0f64, 0.0f64);
     for (x, r) in snap.mean.iter().zip(reference) {
         for c in 0..3 {

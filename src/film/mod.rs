@@ -1,10 +1,12 @@
 //! The film: per-pixel sums owned by tiles, and turning them into images.
 
 pub mod accum;
+pub mod adaptive;
+pub mod false_colour;
 pub mod merge;
 pub mod output;
 pub mod piece;
 pub mod tonemap;
 pub mod window;
 
-pub use accum::{Film, Tile};
+pub use accum::{Film, TILE_SIZE, Tile};

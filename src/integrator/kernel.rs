@@ -101,7 +101,7 @@ fn pixel_offset(settings: &Settings, pixel: UVec2, index: u64, sampler: &mut Sam
 
 /// Sample `index` of `pixel`.
 pub fn sample_pixel(scene: &Scene, settings: &Settings, view: &View, pixel: UVec2, index: u64) -> PathOutput {
-    let mut sampler = Sampler::of_kind(settings.sampler, pixel, index, settings.seed);
+    let mut sampler = Sampler::replicated(settings.sampler, settings.replicates(), pixel, index, settings.seed);
     let film = pixel.as_vec2() + pixel_offset(settings, pixel, index, &mut sampler);
     let ray = view.rays.ray(film);
     check(NanCause::CameraRay, Spectrum::from_rgb(ray.o + ray.d));

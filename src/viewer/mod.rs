@@ -31,7 +31,7 @@ const POLL: Duration = Duration::from_millis(33);
 const REFRESH: Duration = Duration::from_millis(250);
 
 /// What decides how an image is drawn: display transform, error view, selected material.
-type Look = (crate::film::tonemap::Display, bool, Option<u32>);
+type Look = (crate::film::tonemap::Display, state::ImageView, Option<u32>);
 
 /// What the viewer opens, as the command line resolved it.
 pub struct Launch {
@@ -164,7 +164,7 @@ impl App {
 
     /// How the state asks images to be drawn now.
     fn look(&self) -> Look {
-        (self.state.display, self.state.show_error, self.state.selected)
+        (self.state.display, self.state.view, self.state.selected)
     }
 
     /// The newest image, if it should replace the one on screen now (or be redrawn, if

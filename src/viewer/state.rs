@@ -5,6 +5,7 @@
 use super::camera_control::CameraController;
 use super::convergence::{self, ConvergenceLog};
 use crate::config::ViewFile;
+use crate::film::false_colour;
 use crate::film::output::write_image;
 use crate::film::tonemap::Display;
 use crate::integrator::Settings;
@@ -26,6 +27,18 @@ use std::time::{Duration, Instant};
 
 /// Divisor of the resolution while the camera moves (a quick preview that keeps up).
 const PREVIEW_DIVISOR: u32 = 4;
+
+/// What the image area shows.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum ImageView {
+    /// The tonemapped image.
+    #[default]
+    Image,
+    /// Each pixel's estimated relative standard error, in false colour.
+    Error,
+    /// Each pixel's samples, in false colour.
+    Spp,
+}
 
 /// A scene being loaded on its own thread.
 struct Loading {
@@ -87,8 +100,8 @@ pub struct ViewerState {
     pub settings_error: Option<String>,
     /// Estimated error against time of this job and the previous ones.
     pub convergence: ConvergenceLog,
-    /// Show the per-pixel relative standard error in false colour instead of the image.
-    pub show_error: bool,
+    /// What the image area shows: the image, or a false-colour view.
+    pub view: ImageView,
     /// The last notice (where a screenshot went, ...).
     pub message: Option<String>,
     /// Folder for screenshots.
@@ -160,7 +173,7 @@ impl ViewerState {
             error: None,
             settings_error: None,
             convergence: ConvergenceLog::default(),
-            show_error: false,
+            view: ImageView::Image,
             message: None,
             screenshot_dir: ".".into(),
             open_path: String::new(),
@@ -392,12 +405,19 @@ impl ViewerState {
     }
 
     /// Tonemaps a snapshot to RGBA8 for display, tinting the selected material's pixels;
-    /// or, with `show_error`, the false colour of each pixel's relative standard error.
+    /// or the false colour of each pixel's relative standard error, or of its samples.
     pub fn display_rgba(&mut self, snap: &Snapshot) -> Vec<[u8; 4]> {
-        if self.show_error {
-            return (0..snap.mean.len())
-                .map(|i| convergence::error_colour(snap.pixel_relative_error(i).unwrap_or(0.0) as f32))
-                .collect();
+        match self.view {
+            ImageView::Image => {}
+            ImageView::Error => {
+                return (0..snap.mean.len())
+                    .map(|i| false_colour::error_colour(snap.pixel_relative_error(i).unwrap_or(0.0) as f32))
+                    .collect();
+            }
+            ImageView::Spp => {
+                let range = false_colour::spp_range(&snap.pixel_spp, snap.spp);
+                return (0..snap.mean.len()).map(|i| false_colour::spp_colour(snap.pixel_spp(i), range)).collect();
+            }
         }
         if self.selected.is_some() {
             self.update_material_ids(snap);
