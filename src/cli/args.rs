@@ -443,6 +443,9 @@ pub struct BenchArgs {
     /// Adaptive: noise thresholds to compare with uniform sampling, comma-separated.
     #[arg(long, value_delimiter = ',', allow_negative_numbers = true, default_values_t = [0.05, 0.02])]
     pub thresholds: Vec<f32>,
+    /// Adaptive: samples every pixel takes before it may stop [default: the render default].
+    #[arg(long)]
+    pub min_spp: Option<u32>,
     /// Convergence: maximum depth of every strategy (DRT costs branching^depth).
     #[arg(long, default_value_t = 3)]
     pub max_depth: u32,
@@ -452,7 +455,7 @@ pub struct BenchArgs {
     /// Samples per pixel per measured run.
     #[arg(long, default_value_t = 16)]
     pub spp: u32,
-    /// Measured runs per variant (the median is reported).
+    /// Measured runs per variant (the median is reported; for adaptive, rounds of one seed each).
     #[arg(long, default_value_t = 5)]
     pub runs: u32,
     /// Worker threads [default: one per core].

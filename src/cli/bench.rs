@@ -27,7 +27,7 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
         return super::convergence::run(&convergence_args(args)?);
     }
     if args.kind == BenchKind::Adaptive {
-        return super::adaptive::run(&convergence_args(args)?, &args.thresholds, args.runs, args.spp);
+        return super::adaptive::run(&convergence_args(args)?, &args.thresholds, args.min_spp, args.runs);
     }
     if args.kind == BenchKind::Throughput {
         return super::throughput::run(args);

@@ -178,9 +178,7 @@ fn scene_copy(scene: &Scene) -> Scene {
     scene.with_edits(scene.materials.clone(), scene.lights.clone())
 }
 
-/// The errors of `snap` against `reference`: RMSE, and relative MSE with 0.01 added to the
-/// squared reference.
-pub(super) fn row(strategy: &str, snap: &Snapshot, reference: &[Vec3]) -> Row {
+fn row(strategy: &str, snap: &Snapshot, reference: &[Vec3]) -> Row {
     let (mut se, mut rel) = (0.0f64, 0.0f64);
     for (x, r) in snap.mean.iter().zip(reference) {
         for c in 0..3 {

@@ -207,21 +207,21 @@ impl Film {
         width as u64 * height as u64 * (std::mem::size_of::<ErrorSums>() + std::mem::size_of::<u32>()) as u64
     }
 
-    /// Applies `f(index, tile, i)` to every pixel, `index` row-major in the film, `i` in the tile.
-    fn for_each_pixel(&self, mut f: impl FnMut(usize, &Tile, usize)) {
-        for tile in &self.tiles {
-            let (x0, y0) = (tile.origin.x - self.window.x0, tile.origin.y - self.window.y0);
-            for i in 0..tile.pixels.len() {
-                let (x, y) = (x0 + i as u32 % tile.size.x, y0 + i as u32 / tile.size.x);
-                f((y * self.width + x) as usize, tile, i);
-            }
-        }
+    /// Row-major index in the film of pixel `i` of `tile`.
+    fn index(&self, tile: &Tile, i: usize) -> usize {
+        let (x0, y0) = (tile.origin.x - self.window.x0, tile.origin.y - self.window.y0);
+        let (x, y) = (x0 + i as u32 % tile.size.x, y0 + i as u32 / tile.size.x);
+        (y * self.width + x) as usize
     }
 
     /// Row-major image of `value(tile, i)` per pixel.
     fn image<T: Clone + Default>(&self, value: impl Fn(&Tile, usize) -> T) -> Vec<T> {
         let mut img = vec![T::default(); (self.width * self.height) as usize];
-        self.for_each_pixel(|at, tile, i| img[at] = value(tile, i));
+        for tile in &self.tiles {
+            for i in 0..tile.pixels.len() {
+                img[self.index(tile, i)] = value(tile, i);
+            }
+        }
         img
     }
 
@@ -230,24 +230,26 @@ impl Film {
         self.image(|t, i| t.pixels[i].mean().as_vec3())
     }
 
-    /// Row-major image of the estimated variance of each pixel's mean, per channel: from
-    /// its two replicates when `replicates` (and the film keeps error sums), else the
-    /// sample variance over n.
-    pub fn variance_image(&self, replicates: bool) -> Vec<Vec3> {
-        self.image(|t, i| match t.errors.get(i) {
-            Some(e) if replicates => super::adaptive::replicate_variance(&t.pixels[i], e).as_vec3(),
-            _ => t.pixels[i].variance_of_mean().as_vec3(),
-        })
-    }
-
-    /// Row-major image of the estimated variance of each pixel's mean luminance, from its
-    /// replicates or its samples (see `super::adaptive::luminance_variance`); empty unless
-    /// the film keeps error sums.
-    pub fn luminance_variance_image(&self, replicates: bool) -> Vec<f32> {
-        if self.tiles.iter().all(|t| t.errors.is_empty()) {
-            return Vec::new();
+    /// Row-major images of the estimated variance of each pixel's mean, per channel and of
+    /// its luminance: the sample variance over n, times the sampler's local gain over
+    /// independent sampling where the film keeps error sums (`super::adaptive`). The
+    /// luminance image is empty unless the film keeps error sums.
+    pub fn variance_images(&self, replicates: bool) -> (Vec<Vec3>, Vec<f32>) {
+        let pixels = (self.width * self.height) as usize;
+        let kept = self.tiles.iter().any(|t| !t.errors.is_empty());
+        let (mut channels, mut luminance) = (vec![Vec3::ZERO; pixels], vec![0.0; if kept { pixels } else { 0 }]);
+        for tile in &self.tiles {
+            let gains = if kept { super::adaptive::gains(tile, replicates) } else { vec![1.0; tile.pixels.len()] };
+            let variances = if kept { super::adaptive::luminance_variances(tile, &gains) } else { Vec::new() };
+            for (i, px) in tile.pixels.iter().enumerate() {
+                let at = self.index(tile, i);
+                channels[at] = super::adaptive::channel_variance(px, gains[i]).as_vec3();
+                if kept {
+                    luminance[at] = variances[i] as f32;
+                }
+            }
         }
-        self.image(|t, i| super::adaptive::luminance_variance(&t.pixels[i], &t.errors[i], replicates) as f32)
+        (channels, luminance)
     }
 
     /// Row-major image of the samples each pixel took: where the noise threshold stopped
@@ -313,6 +315,6 @@ mod tests {
         tile.add(UVec2::new(1, 1), Spectrum::splat(4.0));
         assert_eq!(film.rejected(), 2);
         assert_eq!(film.mean_image()[5], Vec3::splat(3.0));
-        assert!((film.variance_image(false)[5].x - 1.0).abs() < 1e-6, "s^2 = 2, n = 2");
+        assert!((film.variance_images(false).0[5].x - 1.0).abs() < 1e-6, "s^2 = 2, n = 2");
     }
 }

@@ -450,13 +450,14 @@ fn coordinate(shared: &Shared, pool: &rayon::ThreadPool) {
             continue;
         }
         let replicates = a.job.settings.replicates() > 1;
+        let (variance, luminance_variance) = a.film.variance_images(replicates);
         let snapshot = Arc::new(Snapshot {
             generation: a.generation,
             width: a.film.width,
             height: a.film.height,
             mean: a.film.mean_image(),
-            variance: a.film.variance_image(replicates),
-            luminance_variance: a.film.luminance_variance_image(replicates),
+            variance,
+            luminance_variance,
             estimate: ErrorEstimate::of(a.job.settings.sampler, replicates),
             spp: a.spp,
             pixel_spp: a.film.spp_image(a.spp),
