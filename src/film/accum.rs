@@ -139,7 +139,7 @@ impl Tile {
         }
         let r = radiance.to_rgb().as_dvec3();
         let e = &mut self.errors[(local.y * self.size.x + local.x) as usize];
-        if index % 2 == 0 {
+        if index.is_multiple_of(2) {
             e.half += r;
             e.half_count += 1;
         }

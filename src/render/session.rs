@@ -383,8 +383,8 @@ fn check_job(job: &Job, limits: &Limits) -> Result<(), SessionError> {
 /// Whether `w` lies on the tile grid of a `width` x `height` frame, so that its tiles are
 /// the frame's (and a noise threshold stops its pixels as in the whole frame).
 pub fn on_tile_grid(w: &Window, width: u32, height: u32) -> bool {
-    let edge = |v: u32, end: u32| v % TILE_SIZE == 0 || v == end;
-    w.x0 % TILE_SIZE == 0 && w.y0 % TILE_SIZE == 0 && edge(w.x1, width) && edge(w.y1, height)
+    let edge = |v: u32, end: u32| v.is_multiple_of(TILE_SIZE) || v == end;
+    w.x0.is_multiple_of(TILE_SIZE) && w.y0.is_multiple_of(TILE_SIZE) && edge(w.x1, width) && edge(w.y1, height)
 }
 
 /// The generation being rendered and its film.
