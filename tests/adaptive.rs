@@ -7,7 +7,7 @@
 mod common;
 
 use glam::Vec3;
-use lucent::film::adaptive::{ErrorEstimate, LUMINANCE};
+use lucent::film::adaptive::{ErrorEstimate, FIRST_CHECK, LUMINANCE};
 use lucent::film::window::Window;
 use lucent::integrator::{SamplerKind, Settings};
 use lucent::loader::builtin;
@@ -56,6 +56,8 @@ fn pixels_stop_where_the_error_is_low_and_keep_sampling_the_caustic() {
     let (low, high) = (snap.pixel_spp.iter().min().unwrap(), snap.pixel_spp.iter().max().unwrap());
     assert_eq!((*low, *high), (s.min_spp, 512), "no pixel stops before min-spp or goes past the target");
     assert!(snap.active_share() < 1.0 && snap.mean_spp() < 512.0);
+    let table = Settings::table().iter().find(|p| p.name == "min-spp").unwrap();
+    assert_eq!(table.range(), format!("at least {FIRST_CHECK}"), "the least min-spp is the first check");
 }
 
 /// Per pixel: the observed variance of the luminance estimate over `seeds` renders, and
