@@ -77,6 +77,8 @@ pub enum Group {
     Estimator,
     /// Numerical-robustness mechanisms.
     Robustness,
+    /// Where pixels stop taking samples (the viewer's Convergence section).
+    Convergence,
     /// The display transform.
     Display,
 }

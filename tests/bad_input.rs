@@ -504,7 +504,7 @@ fn the_film_estimate_covers_what_a_session_allocates_and_refuses_a_film_over_the
     let err = session.set_job(Job { settings: big, ..job() }).unwrap_err().to_string();
     assert_eq!(
         err,
-        "image too large: 16384x16384 needs about 34.5 GB for the film, over the memory limit of 12.0 GB: render it in windows (lucent render --region) and merge them"
+        "image too large: 16384x16384 needs about 34.6 GB for the film, over the memory limit of 12.0 GB: render it in windows (lucent render --region) and merge them"
     );
 }
 

@@ -3,12 +3,13 @@
 
 mod common;
 
+use lucent::film::false_colour;
 use lucent::film::tonemap::Display;
 use lucent::integrator::{LightSampling, Settings};
 use lucent::loader::builtin;
 use lucent::scene::Scene;
 use lucent::scene::environment::{BUILT_IN, EnvSettings, Environment};
-use lucent::viewer::state::ViewerState;
+use lucent::viewer::state::{ImageView, ViewerState};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::Arc;
@@ -268,6 +269,33 @@ fn the_denoise_toggle_shows_a_denoised_image_and_leaves_the_accumulation_alone()
     let rgba = state.display_rgba(&snap);
     let shown = lucent::film::tonemap::Display::default().to_srgb8(image[0]);
     assert_eq!(rgba[0][..3], shown, "the window shows the denoised image");
+}
+
+#[test]
+fn the_target_error_mode_stops_and_the_views_show_error_and_samples() {
+    // The noise threshold set (as the target error mode does): the render ends by itself
+    // once every pixel has stopped, and the samples view spans the scale from the fewest
+    // samples to the most.
+    let mut state = viewer();
+    state.settings.noise_threshold = Some(0.1);
+    assert!(state.sync());
+    let start = Instant::now();
+    let mut snap = None;
+    while snap.as_ref().is_none_or(|s: &Arc<lucent::render::Snapshot>| !s.done) {
+        assert!(start.elapsed() < Duration::from_secs(60), "the threshold never stopped every pixel");
+        snap = state.wait_for_update(snap.as_ref(), Duration::from_secs(1)).or(snap);
+    }
+    let snap = snap.unwrap();
+    assert_eq!(snap.active, 0);
+    let range = false_colour::spp_range(&snap.pixel_spp, snap.spp);
+    assert!(range.0 < range.1, "every pixel took {range:?} samples");
+    state.view = ImageView::Spp;
+    let rgba = state.display_rgba(&snap);
+    assert!(rgba.contains(&false_colour::spp_scale(0.0)) && rgba.contains(&false_colour::spp_scale(1.0)));
+    state.view = ImageView::Error;
+    let rgba = state.display_rgba(&snap);
+    let i = (0..rgba.len()).find(|&i| snap.pixel_relative_error(i).is_some()).unwrap();
+    assert_eq!(rgba[i], false_colour::error_colour(snap.pixel_relative_error(i).unwrap() as f32));
 }
 
 fn xvfb_run() -> Option<PathBuf> {

@@ -377,6 +377,9 @@ pub enum BenchKind {
     /// Samples/s, rays/s, BVH build time and peak memory on a fixed suite of scenes, each a
     /// `lucent render` process (with --baseline, against another build, alternating).
     Throughput,
+    /// Relative MSE at equal time of uniform sampling and noise thresholds, and what the
+    /// threshold's checks cost: table, CSV and maps of samples per pixel in --out.
+    Adaptive,
 }
 
 /// A strategy of the convergence study.
@@ -452,7 +455,7 @@ pub struct BenchArgs {
     /// Image width and height in pixels [default: 256; 64 for convergence].
     #[arg(long)]
     pub size: Option<u32>,
-    /// Convergence: seconds of rendering per strategy.
+    /// Convergence and adaptive: seconds of rendering per strategy or variant.
     #[arg(long)]
     pub budget: Option<f64>,
     /// Convergence: output folder for convergence.{csv,md,png,svg}.
@@ -467,6 +470,12 @@ pub struct BenchArgs {
     /// Convergence: strategies to run, comma-separated [default: all].
     #[arg(long, value_enum, value_delimiter = ',')]
     pub strategies: Vec<StrategyName>,
+    /// Adaptive: noise thresholds to compare with uniform sampling, comma-separated.
+    #[arg(long, value_delimiter = ',', allow_negative_numbers = true, default_values_t = [0.05, 0.02])]
+    pub thresholds: Vec<f32>,
+    /// Adaptive: samples every pixel takes before it may stop [default: the render default].
+    #[arg(long)]
+    pub min_spp: Option<u32>,
     /// Convergence: maximum depth of every strategy (DRT costs branching^depth).
     #[arg(long, default_value_t = 3)]
     pub max_depth: u32,
@@ -476,7 +485,7 @@ pub struct BenchArgs {
     /// Samples per pixel per measured run.
     #[arg(long, default_value_t = 16)]
     pub spp: u32,
-    /// Measured runs per variant (the median is reported).
+    /// Measured runs per variant (the median is reported; for adaptive, rounds of one seed each).
     #[arg(long, default_value_t = 5)]
     pub runs: u32,
     /// Worker threads [default: one per core].

@@ -1,7 +1,8 @@
 //! `lucent bench`: samples/s and rays/s, measured with variants alternating in one run so
 //! that their ratios are meaningful on a noisy machine. `kernel` compares the scene's own
 //! feature switches (what it pays for) with every switch on, on the Cornell box;
-//! `robustness` measures each numerical-robustness mechanism by switching it off.
+//! `robustness` measures each numerical-robustness mechanism by switching it off;
+//! `convergence`, `throughput` and `adaptive` have modules of their own.
 
 use super::args::{BenchArgs, BenchKind, ConvergenceArgs, Mechanism};
 use super::render::open_scene;
@@ -24,6 +25,9 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
     }
     if args.kind == BenchKind::Convergence {
         return super::convergence::run(&convergence_args(args)?);
+    }
+    if args.kind == BenchKind::Adaptive {
+        return super::adaptive::run(&convergence_args(args)?, &args.thresholds, args.min_spp, args.runs);
     }
     if args.kind == BenchKind::Throughput {
         return super::throughput::run(args);
@@ -58,12 +62,13 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
     Ok(())
 }
 
-/// The convergence study's options, checked.
+/// The options of the convergence study (or of the adaptive bench, which shares them), checked.
 fn convergence_args(args: &BenchArgs) -> Result<ConvergenceArgs, String> {
-    let budget = args.budget.ok_or("bench convergence needs --budget SECONDS")?;
-    let out = args.out.clone().ok_or("bench convergence needs --out DIR")?;
+    let kind = clap::ValueEnum::to_possible_value(&args.kind).map_or_else(String::new, |v| v.get_name().to_owned());
+    let budget = args.budget.ok_or_else(|| format!("bench {kind} needs --budget SECONDS"))?;
+    let out = args.out.clone().ok_or_else(|| format!("bench {kind} needs --out DIR"))?;
     if args.scenes.len() > 1 {
-        return Err("bench convergence takes one scene".into());
+        return Err(format!("bench {kind} takes one scene"));
     }
     let reference_budget = args.reference_budget.unwrap_or(8.0 * budget);
     if !(reference_budget > 0.0 && reference_budget.is_finite()) {

@@ -125,7 +125,7 @@ pub fn run(args: &ConvergenceArgs) -> Result<(), String> {
 
 /// The reference image: the given EXR, or a long MIS + Sobol render cached in the output
 /// folder under a name that records what it depends on.
-fn reference(args: &ConvergenceArgs, scene: &Scene, base: Settings) -> Result<Vec<Vec3>, String> {
+pub(super) fn reference(args: &ConvergenceArgs, scene: &Scene, base: Settings) -> Result<Vec<Vec3>, String> {
     let path = match &args.reference {
         Some(p) => p.clone(),
         None => args.out.join(format!(

@@ -6,11 +6,12 @@
 //! the same view with the same settings.
 
 use super::args::{FarmSlurmArgs, Split};
+use crate::film::TILE_SIZE;
 use crate::film::merge::pieces_in;
 use crate::film::output::check_writable;
 use crate::film::window::Window;
 use crate::open::OpenOptions;
-use crate::render::film_bytes;
+use crate::render::{film_bytes, threshold_bytes};
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -26,21 +27,35 @@ pub struct PieceSpec {
 }
 
 /// Cuts a `width` x `height`, `spp`-sample render into `n` pieces of nearly equal cost:
-/// sample ranges of the whole frame, or bands of whole rows with every sample.
-pub fn split(split: Split, n: u32, spp: u32, width: u32, height: u32) -> Result<Vec<PieceSpec>, String> {
+/// sample ranges of the whole frame, or bands of whole rows with every sample. With a
+/// noise `threshold` only bands can be cut, on the tile grid, where pixels stop as in
+/// the whole frame (`render::on_tile_grid`).
+pub fn split(
+    split: Split,
+    n: u32,
+    spp: u32,
+    (width, height): (u32, u32),
+    threshold: bool,
+) -> Result<Vec<PieceSpec>, String> {
+    if threshold && split == Split::Samples {
+        return Err("a noise threshold stops pixels by their samples from the first on, so the render cannot be cut into sample ranges: use --split regions".into());
+    }
+    let rows = if threshold { TILE_SIZE } else { 1 };
     let (limit, what) = match split {
-        Split::Samples => (spp, "samples per pixel"),
-        Split::Regions => (height, "rows"),
+        Split::Samples => (spp, "samples per pixel".to_string()),
+        Split::Regions if threshold => (height.div_ceil(rows), format!("bands of {rows} rows (the tile grid)")),
+        Split::Regions => (height, "rows".to_string()),
     };
     if n == 0 || n > limit {
         return Err(format!("--pieces {n}: between 1 and the render's {limit} {what}"));
     }
     let cut = |i: u32| (limit as u64 * i as u64 / n as u64) as u32;
+    let row = |i: u32| (cut(i) * rows).min(height);
     Ok((0..n)
         .map(|i| match split {
             Split::Samples => PieceSpec { first: cut(i), end: cut(i + 1), window: Window::full(width, height) },
             Split::Regions => {
-                PieceSpec { first: 0, end: spp, window: Window { x0: 0, y0: cut(i), x1: width, y1: cut(i + 1) } }
+                PieceSpec { first: 0, end: spp, window: Window { x0: 0, y0: row(i), x1: width, y1: row(i + 1) } }
             }
         })
         .collect())
@@ -77,7 +92,7 @@ pub fn run(args: &FarmSlurmArgs) -> Result<(), String> {
     let mut view = args.options.resolve(Some(64))?;
     let s = view.settings;
     let spp = s.target_spp.expect("a default target is given");
-    let pieces = split(args.split, args.pieces, spp, s.width, s.height)?;
+    let pieces = split(args.split, args.pieces, spp, (s.width, s.height), s.noise_threshold.is_some())?;
     if args.options.threads.is_some() {
         return Err("--threads: each piece uses the CPUs Slurm gives it (--cpus)".into());
     }
@@ -124,7 +139,11 @@ pub fn run(args: &FarmSlurmArgs) -> Result<(), String> {
         let path = dir.join(name);
         crate::film::output::replace_file(&path, |tmp| std::fs::write(tmp, &text)).map_err(|e| e.to_string())?;
     }
-    let largest = pieces.iter().map(|p| film_bytes(p.window.width(), p.window.height())).max().unwrap_or(0);
+    let bytes = |w: &Window| {
+        let extra = if s.noise_threshold.is_some() { threshold_bytes(w.width(), w.height()) } else { 0 };
+        film_bytes(w.width(), w.height()) + extra
+    };
+    let largest = pieces.iter().map(|p| bytes(&p.window)).max().unwrap_or(0);
     println!(
         "{}: {} pieces of {} spp at {}x{} (each holds a film of at most {}, besides the scene); submit them with: bash {}",
         scene.name,
@@ -247,16 +266,23 @@ mod tests {
 
     #[test]
     fn splits_cover_the_render_once() {
-        let by_samples = split(Split::Samples, 3, 10, 8, 6).unwrap();
+        let by_samples = split(Split::Samples, 3, 10, (8, 6), false).unwrap();
         assert_eq!(by_samples.iter().map(|p| (p.first, p.end)).collect::<Vec<_>>(), [(0, 3), (3, 6), (6, 10)]);
-        let bands = split(Split::Regions, 4, 10, 8, 6).unwrap();
+        let bands = split(Split::Regions, 4, 10, (8, 6), false).unwrap();
         assert_eq!(
             bands.iter().map(|p| (p.window.y0, p.window.y1)).collect::<Vec<_>>(),
             [(0, 1), (1, 3), (3, 4), (4, 6)]
         );
         assert!(bands.iter().all(|p| (p.first, p.end, p.window.x0, p.window.x1) == (0, 10, 0, 8)));
-        assert!(split(Split::Samples, 11, 10, 8, 6).is_err());
-        assert!(split(Split::Regions, 0, 10, 8, 6).is_err());
+        assert!(split(Split::Samples, 11, 10, (8, 6), false).is_err());
+        assert!(split(Split::Regions, 0, 10, (8, 6), false).is_err());
+        // With a noise threshold: bands on the tile grid, no sample ranges.
+        let bands = split(Split::Regions, 3, 10, (8, 70), true).unwrap();
+        let rows: Vec<(u32, u32)> = bands.iter().map(|p| (p.window.y0, p.window.y1)).collect();
+        assert_eq!(rows, [(0, 16), (16, 48), (48, 70)]);
+        assert!(bands.iter().all(|p| crate::render::on_tile_grid(&p.window, 8, 70)));
+        assert!(split(Split::Regions, 6, 10, (8, 70), true).unwrap_err().contains("5 bands of 16 rows"));
+        assert!(split(Split::Samples, 2, 10, (8, 70), true).unwrap_err().contains("--split regions"));
         assert_eq!(quote("it's"), r"'it'\''s'");
     }
 }

@@ -3,6 +3,7 @@
 //! bench` (kernel, robustness, convergence and throughput measurements), and what `lucent view`
 //! hands the viewer. `main.rs` dispatches.
 
+mod adaptive;
 pub mod args;
 pub mod bench;
 mod convergence;

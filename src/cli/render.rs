@@ -58,6 +58,9 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     let view = args.options.resolve(if args.time.is_none() { Some(64) } else { None })?;
     let mut settings = view.settings;
     if let Some(range) = &args.samples {
+        if settings.noise_threshold.is_some() {
+            return Err("--noise-threshold stops pixels by their samples from the first on, so it cannot render a range of samples (--samples): split the render by --region instead".into());
+        }
         let (a, b) = super::merge::sample_range(range)?;
         if args.time.is_some() || args.options.settings_given("spp") {
             return Err("--samples A..B sets the samples: give it without --time and --spp".into());
@@ -120,7 +123,11 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     let mut latest: Option<Arc<Snapshot>> = None;
     loop {
         if let Some(s) = session.wait_for_update(latest.as_ref(), Duration::from_millis(200)) {
-            bar.set_message(format!("{:.2} Msamples/s", s.samples_per_second() / 1e6));
+            let active = match settings.noise_threshold {
+                Some(_) => format!(", {:.1}% of pixels active", 100.0 * s.active_share()),
+                None => String::new(),
+            };
+            bar.set_message(format!("{:.2} Msamples/s{active}", s.samples_per_second() / 1e6));
             if args.time.is_none() {
                 bar.set_position(s.spp as u64);
             }
@@ -180,6 +187,17 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     }
     let names: Vec<String> = written.iter().map(|p| p.display().to_string()).collect();
     println!("{}; wrote {}", snap.summary(&scene.name), names.join(", "));
+    if let Some(t) = settings.noise_threshold {
+        let (low, high) = (snap.pixel_spp.iter().min(), snap.pixel_spp.iter().max());
+        println!(
+            "noise threshold {}%: mean {:.1} spp ({} to {}), {:.1}% of pixels converged",
+            100.0 * t,
+            snap.mean_spp(),
+            low.unwrap_or(&0),
+            high.unwrap_or(&0),
+            100.0 * (1.0 - snap.active_share())
+        );
+    }
     let causes = crate::integrator::nan::report();
     if !causes.is_empty() {
         eprintln!("warning: non-finite values by cause: {causes}");

@@ -3,6 +3,8 @@
 //! bits) and f64 sums of its square, owned by tiles so that workers add samples without
 //! locks; NaN or infinite samples are dropped and counted. Asked for, the tiles also sum the
 //! denoiser's albedo and normal per pixel (f64, added in sample order as the radiance is).
+//! With a noise threshold, tiles also keep what the pixels' error estimates need
+//! (`super::adaptive`) and which pixels still take samples.
 
 use super::window::Window;
 use crate::spectrum::Spectrum;
@@ -103,6 +105,19 @@ pub struct AovImages {
     pub normal: Vec<Vec3>,
 }
 
+/// What a pixel's error estimate needs beyond its `PixelSums`: the sums of its first
+/// replicate (the samples of even index, see `Sampler::replicated`) and the sum of squared
+/// luminance (for the variance of luminance, covariance between channels included).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ErrorSums {
+    /// Sum of the samples of even index, per channel.
+    pub half: DVec3,
+    /// Number of samples of even index added.
+    pub half_count: u64,
+    /// Sum of the squared luminance of every sample added.
+    pub luminance_sq: f64,
+}
+
 /// A rectangle of pixels and their sums, owned by one worker at a time.
 #[derive(Clone, Debug)]
 pub struct Tile {
@@ -116,6 +131,11 @@ pub struct Tile {
     pub aovs: Vec<AovSums>,
     /// Samples dropped for being NaN or infinite.
     pub rejected: u64,
+    /// Row-major error sums, kept with a noise threshold (empty otherwise).
+    pub errors: Vec<ErrorSums>,
+    /// Row-major: the sample count at which the noise threshold stopped each pixel, 0
+    /// while it takes samples (empty without a threshold).
+    pub stopped_at: Vec<u32>,
 }
 
 impl Tile {
@@ -147,6 +167,26 @@ impl Tile {
             px.count += 1;
         }
     }
+
+    /// Adds sample `index` of the pixel at `local` to its error sums (kept with a noise
+    /// threshold; call it beside `add`, which drops the same non-finite samples).
+    pub fn add_error(&mut self, local: UVec2, index: u64, radiance: Spectrum) {
+        if !radiance.is_finite() {
+            return;
+        }
+        let r = radiance.to_rgb().as_dvec3();
+        let e = &mut self.errors[(local.y * self.size.x + local.x) as usize];
+        if index.is_multiple_of(2) {
+            e.half += r;
+            e.half_count += 1;
+        }
+        e.luminance_sq += super::adaptive::luminance(r).powi(2);
+    }
+
+    /// Whether the pixel at `local` still takes samples.
+    pub fn active(&self, local: UVec2) -> bool {
+        self.stopped_at.get((local.y * self.size.x + local.x) as usize).is_none_or(|&n| n == 0)
+    }
 }
 
 /// The accumulation buffer of a window of the frame.
@@ -177,10 +217,27 @@ impl Film {
                 let size = UVec2::new(TILE_SIZE.min(width - x0), TILE_SIZE.min(height - y0));
                 let pixels = vec![PixelSums::default(); (size.x * size.y) as usize];
                 let origin = UVec2::new(window.x0 + x0, window.y0 + y0);
-                tiles.push(Tile { origin, size, pixels, aovs: Vec::new(), rejected: 0 });
+                tiles.push(Tile {
+                    origin,
+                    size,
+                    pixels,
+                    aovs: Vec::new(),
+                    rejected: 0,
+                    errors: Vec::new(),
+                    stopped_at: Vec::new(),
+                });
             }
         }
         Self { window, width, height, tiles }
+    }
+
+    /// The film with what a noise threshold needs: every pixel taking samples, and error sums.
+    pub fn with_threshold(mut self) -> Self {
+        for tile in &mut self.tiles {
+            tile.errors = vec![ErrorSums::default(); tile.pixels.len()];
+            tile.stopped_at = vec![0; tile.pixels.len()];
+        }
+        self
     }
 
     /// Bytes `Film::new(width, height)` allocates at most: pixel sums and tiles (listed with slack).
@@ -222,28 +279,69 @@ impl Film {
         Some(images)
     }
 
-    /// Applies `f(x, y, sums)` to every pixel, in the film's coordinates.
-    fn for_each_pixel(&self, mut f: impl FnMut(u32, u32, &PixelSums)) {
+    /// Bytes `with_threshold` adds to a `width` x `height` film.
+    pub fn threshold_bytes(width: u32, height: u32) -> u64 {
+        width as u64 * height as u64 * (std::mem::size_of::<ErrorSums>() + std::mem::size_of::<u32>()) as u64
+    }
+
+    /// Row-major index in the film of pixel `i` of `tile`.
+    fn index(&self, tile: &Tile, i: usize) -> usize {
+        let (x0, y0) = (tile.origin.x - self.window.x0, tile.origin.y - self.window.y0);
+        let (x, y) = (x0 + i as u32 % tile.size.x, y0 + i as u32 / tile.size.x);
+        (y * self.width + x) as usize
+    }
+
+    /// Row-major image of `value(tile, i)` per pixel.
+    fn image<T: Clone + Default>(&self, value: impl Fn(&Tile, usize) -> T) -> Vec<T> {
+        let mut img = vec![T::default(); (self.width * self.height) as usize];
         for tile in &self.tiles {
-            let (x0, y0) = (tile.origin.x - self.window.x0, tile.origin.y - self.window.y0);
-            for (i, px) in tile.pixels.iter().enumerate() {
-                f(x0 + i as u32 % tile.size.x, y0 + i as u32 / tile.size.x, px);
+            for i in 0..tile.pixels.len() {
+                img[self.index(tile, i)] = value(tile, i);
             }
         }
+        img
     }
 
     /// Row-major image of per-pixel means.
     pub fn mean_image(&self) -> Vec<Vec3> {
-        let mut img = vec![Vec3::ZERO; (self.width * self.height) as usize];
-        self.for_each_pixel(|x, y, p| img[(y * self.width + x) as usize] = p.mean().as_vec3());
-        img
+        self.image(|t, i| t.pixels[i].mean().as_vec3())
     }
 
-    /// Row-major image of the estimated variance of each pixel's mean.
-    pub fn variance_image(&self) -> Vec<Vec3> {
-        let mut img = vec![Vec3::ZERO; (self.width * self.height) as usize];
-        self.for_each_pixel(|x, y, p| img[(y * self.width + x) as usize] = p.variance_of_mean().as_vec3());
-        img
+    /// Row-major images of the estimated variance of each pixel's mean, per channel and of
+    /// its luminance: the sample variance over n, times the sampler's local gain over
+    /// independent sampling where the film keeps error sums (`super::adaptive`). The
+    /// luminance image is empty unless the film keeps error sums.
+    pub fn variance_images(&self, replicates: bool) -> (Vec<Vec3>, Vec<f32>) {
+        let pixels = (self.width * self.height) as usize;
+        let kept = self.tiles.iter().any(|t| !t.errors.is_empty());
+        let (mut channels, mut luminance) = (vec![Vec3::ZERO; pixels], vec![0.0; if kept { pixels } else { 0 }]);
+        for tile in &self.tiles {
+            let gains = if kept { super::adaptive::gains(tile, replicates) } else { vec![1.0; tile.pixels.len()] };
+            let variances = if kept { super::adaptive::luminance_variances(tile, &gains) } else { Vec::new() };
+            for (i, px) in tile.pixels.iter().enumerate() {
+                let at = self.index(tile, i);
+                channels[at] = super::adaptive::channel_variance(px, gains[i]).as_vec3();
+                if kept {
+                    luminance[at] = variances[i] as f32;
+                }
+            }
+        }
+        (channels, luminance)
+    }
+
+    /// Row-major image of the samples each pixel took: where the noise threshold stopped
+    /// it, or `spp` while it takes samples; empty without a threshold.
+    pub fn spp_image(&self, spp: u32) -> Vec<u32> {
+        if self.tiles.iter().all(|t| t.stopped_at.is_empty()) {
+            return Vec::new();
+        }
+        self.image(|t, i| if t.stopped_at[i] == 0 { spp } else { t.stopped_at[i] })
+    }
+
+    /// Pixels still taking samples.
+    pub fn active_pixels(&self) -> u64 {
+        self.tiles.iter().map(|t| t.stopped_at.iter().filter(|&&n| n == 0).count() as u64).sum::<u64>()
+            + self.tiles.iter().filter(|t| t.stopped_at.is_empty()).map(|t| t.pixels.len() as u64).sum::<u64>()
     }
 
     /// Samples dropped for being NaN or infinite.
@@ -294,7 +392,7 @@ mod tests {
         tile.add(UVec2::new(1, 1), Spectrum::splat(4.0));
         assert_eq!(film.rejected(), 2);
         assert_eq!(film.mean_image()[5], Vec3::splat(3.0));
-        assert!((film.variance_image()[5].x - 1.0).abs() < 1e-6, "s^2 = 2, n = 2");
+        assert!((film.variance_images(false).0[5].x - 1.0).abs() < 1e-6, "s^2 = 2, n = 2");
     }
 
     #[test]

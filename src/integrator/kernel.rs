@@ -112,7 +112,7 @@ pub fn sample_pixel(
     index: u64,
     aovs: bool,
 ) -> PathOutput {
-    let mut sampler = Sampler::of_kind(settings.sampler, pixel, index, settings.seed);
+    let mut sampler = Sampler::replicated(settings.sampler, settings.replicates(), pixel, index, settings.seed);
     let film = pixel.as_vec2() + pixel_offset(settings, pixel, index, &mut sampler);
     let ray = view.rays.ray(film);
     check(NanCause::CameraRay, Spectrum::from_rgb(ray.o + ray.d));

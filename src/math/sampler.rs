@@ -60,11 +60,24 @@ impl Sampler {
 
     /// Starts sample `index` of `pixel` for `seed` from the sequence of `kind`.
     pub fn of_kind(kind: SamplerKind, pixel: UVec2, index: u64, seed: u64) -> Self {
+        Self::replicated(kind, 1, pixel, index, seed)
+    }
+
+    /// Starts sample `index` of `pixel` for `seed`, the pixel's samples split among
+    /// `replicates` independent randomisations (R >= 1): for Sobol, sample i is point i / R
+    /// of a sequence scrambled for (pixel, seed, i mod R), so the R replicate means are
+    /// independent and their spread estimates the error of the pixel's mean honestly
+    /// (randomised QMC, Owen 1997; L'Ecuyer and Lemieux 2002). One replicate is the single
+    /// sequence of `of_kind`. Independent samples are independent already: R changes nothing.
+    pub fn replicated(kind: SamplerKind, replicates: u32, pixel: UVec2, index: u64, seed: u64) -> Self {
         match kind {
             SamplerKind::Independent => Self::new(pixel, index, seed),
             SamplerKind::Sobol => {
-                let scramble = hash3(hash3(pixel.x as u64, pixel.y as u64, seed), index / SOBOL_LENGTH, 0x50b0);
-                let index_rev = ((index % SOBOL_LENGTH) as u32).reverse_bits();
+                let r = replicates.max(1) as u64;
+                let (replicate, point) = (index % r, index / r);
+                let pixel_seed = hash3(pixel.x as u64, pixel.y as u64, seed);
+                let scramble = hash3(pixel_seed, point / SOBOL_LENGTH, 0x50b0 ^ replicate << 16);
+                let index_rev = ((point % SOBOL_LENGTH) as u32).reverse_bits();
                 Self { inner: Inner::Sobol { index_rev, scramble, dimension: 0 } }
             }
         }
@@ -234,6 +247,29 @@ mod tests {
         assert_ne!(draw(p, 5, 1), draw(p, 5, 2));
         assert_ne!(draw(p, 5, 1), draw(UVec2::new(7, 3), 5, 1));
         assert_ne!(draw(p, 5, 1), draw(p, 5 + SOBOL_LENGTH, 1));
+    }
+
+    #[test]
+    fn each_replicate_is_a_stratified_sequence_of_its_own() {
+        // Two replicates: samples 0, 2, 4, ... are the points of one scrambled sequence and
+        // 1, 3, 5, ... of another, each stratified (one point per 1/64 of the first draw's
+        // x), and different (independent scrambles). One replicate is the single sequence;
+        // the independent sampler ignores replicates.
+        let p = UVec2::new(2, 5);
+        let first = |r: u32, i: u64| Sampler::replicated(SamplerKind::Sobol, r, p, i, 7).next_2d();
+        for replicate in 0..2 {
+            let mut bins = [0u32; 64];
+            for i in (replicate..128).step_by(2) {
+                bins[(first(2, i).x * 64.0) as usize] += 1;
+            }
+            assert!(bins.iter().all(|&c| c == 1), "replicate {replicate}: {bins:?}");
+        }
+        assert_ne!(first(2, 0), first(2, 1));
+        for i in [0, 5, 70_000] {
+            assert_eq!(first(1, i), Sampler::of_kind(SamplerKind::Sobol, p, i, 7).next_2d());
+        }
+        let independent = |r: u32| Sampler::replicated(SamplerKind::Independent, r, p, 6, 7).next_2d();
+        assert_eq!(independent(2), independent(1), "independent samples need no replicates");
     }
 
     #[test]

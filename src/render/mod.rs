@@ -2,4 +2,4 @@
 
 mod session;
 
-pub use session::{Job, RenderSession, SessionError, Snapshot, film_bytes};
+pub use session::{Job, RenderSession, SessionError, Snapshot, film_bytes, on_tile_grid, threshold_bytes};

@@ -2,8 +2,12 @@
 //! (each worker owns whole tiles, so the add path takes no lock), publishes a snapshot
 //! after every pass, and restarts at once when a new job bumps the generation. A job may ask
 //! for the denoiser's albedo and normal images too (AOVs), which leave its radiance unchanged.
+//! With a noise threshold, each tile checks its pixels itself at fixed sample counts inside
+//! the passes (`film::adaptive`), so which pixels stop depends neither on the pass sizes,
+//! which follow the timing, nor on the thread count.
 
-use crate::film::{AovImages, Film, Tile, window::Window};
+use crate::film::adaptive::{self, ErrorEstimate, LUMINANCE, LUMINANCE_FLOOR};
+use crate::film::{AovImages, Film, TILE_SIZE, Tile, window::Window};
 use crate::integrator::{Integrator, Settings, View, sample_pixel, settings::InvalidSettings};
 use crate::memory::{Limits, format_bytes};
 use crate::scene::{Scene, camera::Camera};
@@ -48,12 +52,21 @@ pub struct Snapshot {
     pub height: u32,
     /// Row-major mean radiance per pixel.
     pub mean: Vec<Vec3>,
-    /// Row-major estimated variance of each pixel's mean.
+    /// Row-major estimated variance of each pixel's mean, per channel (see `estimate`).
     pub variance: Vec<Vec3>,
     /// Mean albedo and normal images, if the job asked for them.
     pub aovs: Option<AovImages>,
-    /// Samples per pixel accumulated.
+    /// Row-major estimated variance of each pixel's mean luminance, covariance between
+    /// channels included; with a noise threshold only (empty otherwise).
+    pub luminance_variance: Vec<f32>,
+    /// How the variances were estimated, and whether that is honest.
+    pub estimate: ErrorEstimate,
+    /// Samples per pixel accumulated (by the pixels still taking samples).
     pub spp: u32,
+    /// Row-major samples each pixel took, with a noise threshold (empty otherwise: `spp` each).
+    pub pixel_spp: Vec<u32>,
+    /// Pixels still taking samples.
+    pub active: u64,
     /// Time spent rendering this generation (pauses excluded).
     pub elapsed: Duration,
     /// Pixel samples taken (including rejected ones).
@@ -104,14 +117,36 @@ impl Snapshot {
         (self.spp >= 2 && n > 0).then(|| sum / n as f64)
     }
 
-    /// Relative standard error of pixel `i`'s luminance (its variance taken as
-    /// sum w_c^2 var_c, ignoring the covariance between channels); None for unlit pixels.
+    /// Relative standard error of pixel `i`'s luminance, relative to its luminance or
+    /// `LUMINANCE_FLOOR`, whichever is larger, as the noise threshold measures it; without a
+    /// threshold the luminance variance is taken as sum w_c^2 var_c, ignoring the covariance
+    /// between channels. None for unlit pixels and while the error is unknown.
     pub fn pixel_relative_error(&self, i: usize) -> Option<f64> {
-        let w = [0.2126f64, 0.7152, 0.0722];
-        let (m, v) = (self.mean[i], self.variance[i]);
-        let lum: f64 = (0..3).map(|c| w[c] * m[c] as f64).sum();
-        let var: f64 = (0..3).map(|c| w[c] * w[c] * v[c] as f64).sum();
-        (lum > 0.0).then(|| var.sqrt() / lum)
+        let m = self.mean[i];
+        let lum: f64 = (0..3).map(|c| LUMINANCE[c] * m[c] as f64).sum();
+        let var = match self.luminance_variance.get(i) {
+            Some(&v) => v as f64,
+            None => (0..3).map(|c| LUMINANCE[c] * LUMINANCE[c] * self.variance[i][c] as f64).sum(),
+        };
+        (lum > 0.0 && var.is_finite()).then(|| var.sqrt() / lum.max(LUMINANCE_FLOOR))
+    }
+
+    /// Samples pixel `i` took.
+    pub fn pixel_spp(&self, i: usize) -> u32 {
+        self.pixel_spp.get(i).copied().unwrap_or(self.spp)
+    }
+
+    /// Mean samples per pixel.
+    pub fn mean_spp(&self) -> f64 {
+        if self.pixel_spp.is_empty() {
+            return self.spp as f64;
+        }
+        self.pixel_spp.iter().map(|&n| n as f64).sum::<f64>() / self.pixel_spp.len().max(1) as f64
+    }
+
+    /// Share of the pixels still taking samples, in [0, 1].
+    pub fn active_share(&self) -> f64 {
+        self.active as f64 / self.mean.len().max(1) as f64
     }
 }
 
@@ -151,6 +186,12 @@ pub fn film_bytes(width: u32, height: u32) -> u64 {
 fn aov_bytes(width: u32, height: u32) -> u64 {
     let snapshot = 2 * width as u64 * height as u64 * std::mem::size_of::<Vec3>() as u64;
     Film::aov_bytes(width, height) + 2 * snapshot
+}
+
+/// Bytes a noise threshold adds to `film_bytes`: the film's error sums and stopping counts,
+/// and two snapshots' luminance variances and samples per pixel.
+pub fn threshold_bytes(width: u32, height: u32) -> u64 {
+    Film::threshold_bytes(width, height) + 2 * width as u64 * height as u64 * 8
 }
 
 struct Pending {
@@ -331,14 +372,32 @@ fn check_job(job: &Job, limits: &Limits) -> Result<(), SessionError> {
         w.check(job.settings.width, job.settings.height)
             .map_err(|e| SessionError::Settings(InvalidSettings(format!("window {w}: {e}"))))?;
     }
+    let threshold = job.settings.noise_threshold.is_some();
+    if threshold && job.settings.first_sample != 0 {
+        return Err(SessionError::Settings(InvalidSettings(
+            "a noise threshold stops pixels by their samples from the first on, so it cannot render a range of samples (--samples): split the render by --region instead".into(),
+        )));
+    }
+    if let Some(w) = job.window.filter(|w| threshold && !on_tile_grid(w, job.settings.width, job.settings.height)) {
+        return Err(SessionError::Settings(InvalidSettings(format!(
+            "window {w}: with a noise threshold a window must lie on the {TILE_SIZE}-pixel tile grid (X0 and Y0 multiples of {TILE_SIZE}, X1 and Y1 too or the frame's edge), where its pixels stop as in the whole frame"
+        ))));
+    }
     let window = job.window();
     let (width, height) = (window.width(), window.height());
     let aovs = if job.aovs { aov_bytes(width, height) } else { 0 };
-    let bytes = film_bytes(width, height) + aovs;
+    let bytes = film_bytes(width, height) + aovs + if threshold { threshold_bytes(width, height) } else { 0 };
     if bytes > limits.memory {
         return Err(SessionError::TooLarge { width, height, bytes, limit: limits.memory });
     }
     Ok(())
+}
+
+/// Whether `w` lies on the tile grid of a `width` x `height` frame, so that its tiles are
+/// the frame's (and a noise threshold stops its pixels as in the whole frame).
+pub fn on_tile_grid(w: &Window, width: u32, height: u32) -> bool {
+    let edge = |v: u32, end: u32| v.is_multiple_of(TILE_SIZE) || v == end;
+    w.x0.is_multiple_of(TILE_SIZE) && w.y0.is_multiple_of(TILE_SIZE) && edge(w.x1, width) && edge(w.y1, height)
 }
 
 /// The generation being rendered and its film.
@@ -352,6 +411,8 @@ struct Active {
     elapsed: Duration,
     samples: u64,
     traced: u64,
+    /// Every pixel stopped by the noise threshold.
+    converged: bool,
 }
 
 impl Active {
@@ -362,7 +423,7 @@ impl Active {
             film.record_aovs();
         }
         Self {
-            film,
+            film: if s.noise_threshold.is_some() { film.with_threshold() } else { film },
             view: View::new(&job.scene, &job.camera, s.width, s.height),
             job,
             generation,
@@ -371,11 +432,12 @@ impl Active {
             elapsed: Duration::ZERO,
             samples: 0,
             traced: 0,
+            converged: false,
         }
     }
 
     fn done(&self) -> bool {
-        self.job.settings.target_spp.is_some_and(|t| self.spp >= t)
+        self.converged || self.job.settings.target_spp.is_some_and(|t| self.spp >= t)
     }
 }
 
@@ -403,14 +465,20 @@ fn coordinate(shared: &Shared, pool: &rayon::ThreadPool) {
         if !run_pass(shared, pool, a) {
             continue;
         }
+        let replicates = a.job.settings.replicates() > 1;
+        let (variance, luminance_variance) = a.film.variance_images(replicates);
         let snapshot = Arc::new(Snapshot {
             generation: a.generation,
             width: a.film.width,
             height: a.film.height,
             mean: a.film.mean_image(),
-            variance: a.film.variance_image(),
+            variance,
+            luminance_variance,
+            estimate: ErrorEstimate::of(a.job.settings.sampler, replicates),
             aovs: a.film.aov_images(),
             spp: a.spp,
+            pixel_spp: a.film.spp_image(a.spp),
+            active: a.film.active_pixels(),
             elapsed: a.elapsed,
             samples: a.samples,
             rays: a.traced,
@@ -436,31 +504,62 @@ struct Pass<'a> {
     aovs: bool,
 }
 
+/// The noise threshold's parameters, for a pass.
+#[derive(Clone, Copy)]
+struct Threshold {
+    threshold: f64,
+    min_spp: u32,
+    replicates: bool,
+}
+
 impl Pass<'_> {
     fn stale(&self) -> bool {
         self.current.load(Ordering::Relaxed) != self.generation
     }
 
-    /// Adds samples `first..first + count` to every pixel of the tile; returns (samples, rays).
+    fn threshold(&self) -> Option<Threshold> {
+        let s = self.settings;
+        s.noise_threshold.map(|t| Threshold { threshold: t as f64, min_spp: s.min_spp, replicates: s.replicates() > 1 })
+    }
+
+    /// Adds samples `first..first + count` to every pixel of the tile that takes samples,
+    /// checking the noise threshold at each check count on the way; returns (samples, rays).
     fn render_tile(&self, tile: &mut Tile) -> (u64, u64) {
         let (mut samples, mut traced) = (0u64, 0u64);
-        for ly in 0..tile.size.y {
-            for lx in 0..tile.size.x {
-                if self.stale() {
-                    return (samples, traced);
-                }
-                let local = UVec2::new(lx, ly);
-                let pixel = tile.origin + local;
-                for i in 0..self.count as u64 {
-                    let out = sample_pixel(self.scene, self.settings, self.view, pixel, self.first + i, self.aovs);
-                    tile.add(local, out.radiance);
-                    if let Some(aov) = out.aov {
-                        tile.add_aov(local, aov.albedo, aov.normal);
+        let threshold = self.threshold();
+        let end = self.first + self.count as u64;
+        let mut start = self.first;
+        while start < end {
+            let check = threshold.map(|t| adaptive::next_check(start, t.min_spp));
+            let stop = check.map_or(end, |c| c.min(end));
+            for ly in 0..tile.size.y {
+                for lx in 0..tile.size.x {
+                    if self.stale() {
+                        return (samples, traced);
                     }
-                    traced += out.rays as u64;
+                    let local = UVec2::new(lx, ly);
+                    if !tile.active(local) {
+                        continue;
+                    }
+                    let pixel = tile.origin + local;
+                    for index in start..stop {
+                        let out = sample_pixel(self.scene, self.settings, self.view, pixel, index, self.aovs);
+                        tile.add(local, out.radiance);
+                        if let Some(aov) = out.aov {
+                            tile.add_aov(local, aov.albedo, aov.normal);
+                        }
+                        if threshold.is_some() {
+                            tile.add_error(local, index, out.radiance);
+                        }
+                        traced += out.rays as u64;
+                    }
+                    samples += stop - start;
                 }
-                samples += self.count as u64;
             }
+            if let Some(t) = threshold.filter(|_| check == Some(stop)) {
+                adaptive::check(tile, stop as u32, t.threshold, t.replicates);
+            }
+            start = stop;
         }
         (samples, traced)
     }
@@ -488,6 +587,7 @@ fn run_pass(shared: &Shared, pool: &rayon::ThreadPool, a: &mut Active) -> bool {
     }
     let took = start.elapsed();
     a.spp += pass.count;
+    a.converged = a.job.settings.noise_threshold.is_some() && a.film.active_pixels() == 0;
     a.elapsed += took;
     a.samples += samples;
     a.traced += traced;

@@ -1,6 +1,6 @@
 //! The live convergence log: the estimated error of the current view against render time,
-//! one curve per job (earlier jobs kept for comparison), the time still needed to reach a
-//! target error, and the false colours of the per-pixel error view.
+//! one curve per job (earlier jobs kept for comparison) and the time still needed to reach
+//! a target error.
 
 use crate::integrator::Settings;
 use crate::params::Group;
@@ -80,18 +80,11 @@ pub fn label(s: &Settings) -> String {
     let defaults = Settings::default();
     let differences: Vec<String> = Settings::table()
         .iter()
-        .filter(|p| p.group == Group::Estimator && !matches!(p.name, "seed" | "spp"))
+        .filter(|p| matches!(p.group, Group::Estimator | Group::Convergence) && !matches!(p.name, "seed" | "spp"))
         .filter(|p| (p.shown)(s) && (p.get)(s) != (p.get)(&defaults))
         .map(|p| format!("{} {}", p.name, (p.get)(s)))
         .collect();
     if differences.is_empty() { "default estimator".into() } else { differences.join(", ") }
-}
-
-/// False colour of a relative standard error: log scale from 0.1% (dark) to 100% (bright).
-pub fn error_colour(relative: f32) -> [u8; 4] {
-    let t = if relative.is_finite() { ((relative.max(1e-3).log10() + 3.0) / 3.0).clamp(0.0, 1.0) } else { 1.0 };
-    let c = colorous::INFERNO.eval_continuous(t as f64);
-    [c.r, c.g, c.b, 255]
 }
 
 #[cfg(test)]
@@ -109,7 +102,11 @@ mod tests {
             mean: vec![Vec3::ONE],
             variance: vec![Vec3::splat(error * error)],
             aovs: None,
+            luminance_variance: Vec::new(),
+            estimate: crate::film::adaptive::ErrorEstimate::Samples,
             spp: 2,
+            pixel_spp: Vec::new(),
+            active: 1,
             elapsed: Duration::from_secs_f64(seconds),
             samples: 1,
             rays: 1,
@@ -159,13 +156,5 @@ mod tests {
         assert_eq!(label(&s), "lights explicit", "branching applies to DRT only, the seed to no curve");
         let drt = Settings { integrator: crate::integrator::Integrator::Distribution, ..s };
         assert_eq!(label(&drt), "integrator distribution, branching 4, lights explicit");
-    }
-
-    #[test]
-    fn false_colours_brighten_with_the_error() {
-        let lum = |c: [u8; 4]| c[0] as u32 + c[1] as u32 + c[2] as u32;
-        assert!(lum(error_colour(1e-3)) < lum(error_colour(0.03)));
-        assert!(lum(error_colour(0.03)) < lum(error_colour(1.0)));
-        assert_eq!(error_colour(f32::NAN), error_colour(10.0));
     }
 }

@@ -35,9 +35,10 @@ const POLL: Duration = Duration::from_millis(33);
 /// final one are shown at once).
 const REFRESH: Duration = Duration::from_millis(250);
 
-/// What decides how an image is drawn: display transform, error view, outlined material,
-/// the denoised result shown, and the before/after comparison.
-type Look = (crate::film::tonemap::Display, bool, Option<u32>, Option<(u64, u32)>, (compare::CompareView, u64));
+/// What decides how an image is drawn: display transform, image view (radiance, error,
+/// samples), outlined material, the denoised result shown, and the before/after comparison.
+type Look =
+    (crate::film::tonemap::Display, state::ImageView, Option<u32>, Option<(u64, u32)>, (compare::CompareView, u64));
 
 /// What the viewer opens, as the command line resolved it.
 pub struct Launch {
@@ -191,7 +192,7 @@ impl App {
     fn look(&self) -> Look {
         (
             self.state.display,
-            self.state.show_error,
+            self.state.view,
             self.state.highlighted(),
             self.state.denoiser.shown_key(),
             self.state.compare.look(),

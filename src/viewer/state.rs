@@ -12,6 +12,7 @@ use super::inspect::Probes;
 use super::progress::{Progress, Target, progress};
 use crate::config::ViewFile;
 use crate::film::denoise::AVAILABLE as DENOISER_BUILT_IN;
+use crate::film::false_colour;
 use crate::film::output::{replace_file, write_image};
 use crate::film::tonemap::Display;
 use crate::integrator::Settings;
@@ -41,6 +42,18 @@ const WANT_AOVS: bool = DENOISER_BUILT_IN;
 /// the divisor (1/8, 1/4, 1/2, full), so the view sharpens in steps that cost together a
 /// third of one full-resolution pass.
 const COARSEST: u32 = 8;
+
+/// What the image area shows.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum ImageView {
+    /// The tonemapped image.
+    #[default]
+    Image,
+    /// Each pixel's estimated relative standard error, in false colour.
+    Error,
+    /// Each pixel's samples, in false colour.
+    Spp,
+}
 
 /// A scene being loaded on its own thread.
 struct Loading {
@@ -109,8 +122,8 @@ pub struct ViewerState {
     pub settings_error: Option<String>,
     /// Estimated error against time of this job and the previous ones.
     pub convergence: ConvergenceLog,
-    /// Show the per-pixel relative standard error in false colour instead of the image.
-    pub show_error: bool,
+    /// What the image area shows: the image, or a false-colour view.
+    pub view: ImageView,
     /// The Denoise toggle and its worker.
     pub denoiser: Denoiser,
     /// The last notice (where a screenshot went, ...).
@@ -198,7 +211,7 @@ impl ViewerState {
             error: None,
             settings_error: None,
             convergence: ConvergenceLog::default(),
-            show_error: false,
+            view: ImageView::Image,
             denoiser: Denoiser::default(),
             message: None,
             screenshot_dir,
@@ -539,14 +552,21 @@ impl ViewerState {
 
     /// Tonemaps a snapshot to RGBA8 for display (its denoised image when the toggle is on and
     /// one of this job is ready), outlining the selected material's pixels (those with a
-    /// neighbour, or the image's edge, outside it; its inside is left as it renders); or, with
-    /// `show_error`, the false colour of each pixel's relative standard error; or, comparing
+    /// neighbour, or the image's edge, outside it; its inside is left as it renders); or the
+    /// false colour of each pixel's relative standard error or of its samples; or, comparing
     /// with a pin of its size, their composition (`compare::compose`).
     pub fn display_rgba(&mut self, snap: &Snapshot) -> Vec<[u8; 4]> {
-        if self.show_error {
-            return (0..snap.mean.len())
-                .map(|i| convergence::error_colour(snap.pixel_relative_error(i).unwrap_or(0.0) as f32))
-                .collect();
+        match self.view {
+            ImageView::Image => {}
+            ImageView::Error => {
+                return (0..snap.mean.len())
+                    .map(|i| false_colour::error_colour(snap.pixel_relative_error(i).unwrap_or(0.0) as f32))
+                    .collect();
+            }
+            ImageView::Spp => {
+                let range = false_colour::spp_range(&snap.pixel_spp, snap.spp);
+                return (0..snap.mean.len()).map(|i| false_colour::spp_colour(snap.pixel_spp(i), range)).collect();
+            }
         }
         let live = self.denoiser.shown(snap).map_or(&snap.mean, |d| &d.image);
         if let Some(rgba) = self.compare.rgba(live, snap.width, snap.height, &self.display) {

@@ -7,7 +7,8 @@ mod inspect;
 mod tools;
 mod widgets;
 
-use super::state::ViewerState;
+use super::state::{ImageView, ViewerState};
+use crate::film::false_colour;
 use crate::integrator::settings::DRT_RAY_BUDGET;
 use crate::integrator::{Integrator, Settings};
 use crate::params::Group;
@@ -16,8 +17,8 @@ use crate::scene::environment::BUILT_IN;
 use egui::{Color32, Key, Ui};
 use egui_plot::{GridMark, Legend, Line, Plot, log_grid_spacer};
 use std::time::Instant;
-use widgets::colour_and_amount;
 pub(super) use widgets::param_widget;
+use widgets::{colour_and_amount, legend};
 
 /// UI-only state that does not affect the image.
 pub struct UiState {
@@ -115,7 +116,20 @@ fn status(ui: &mut Ui, state: &ViewerState, ui_state: &UiState) {
                 s.rays_per_second() / 1e6
             ));
             let noise = s.relative_error().map_or("-".into(), |e| format!("{:.2}%", 100.0 * e));
-            ui.label(format!("noise (rel. std. error) {noise}, NaN/Inf dropped {}", s.rejected));
+            let bound = if s.estimate.honest() {
+                ""
+            } else {
+                " (overstated: Sobol's stratified samples are better than their spread; a noise threshold estimates it honestly)"
+            };
+            ui.label(format!("noise (rel. std. error) {noise}{bound}, NaN/Inf dropped {}", s.rejected));
+            if !s.pixel_spp.is_empty() {
+                let (low, high) = false_colour::spp_range(&s.pixel_spp, s.spp);
+                ui.label(format!(
+                    "{:.1}% of pixels still sampling; mean {:.1} spp ({low} to {high})",
+                    100.0 * s.active_share(),
+                    s.mean_spp()
+                ));
+            }
             let causes = crate::integrator::nan::report();
             if !causes.is_empty() {
                 ui.colored_label(egui::Color32::LIGHT_RED, format!("non-finite values by cause: {causes}"));
@@ -160,7 +174,7 @@ fn controls(ui: &mut Ui, state: &mut ViewerState, ui_state: &mut UiState) {
     });
     egui::CollapsingHeader::new("Compare").default_open(true).show(ui, |ui| tools::compare(ui, state, ui_state));
     egui::CollapsingHeader::new("Inspect").default_open(true).show(ui, |ui| tools::probes(ui, state, ui_state));
-    egui::CollapsingHeader::new("Convergence").default_open(true).show(ui, |ui| convergence(ui, state));
+    egui::CollapsingHeader::new("Convergence").default_open(true).show(ui, |ui| convergence(ui, state, ui_state));
     egui::CollapsingHeader::new("Camera").default_open(true).show(ui, |ui| camera(ui, state));
     egui::CollapsingHeader::new("Environment").default_open(true).show(ui, |ui| environment(ui, state));
     egui::CollapsingHeader::new("Files").default_open(true).show(ui, |ui| files(ui, state));
@@ -188,8 +202,9 @@ fn estimator(ui: &mut Ui, state: &mut ViewerState) {
 }
 
 /// The estimated error against time (log-log) of this job and the previous ones, the time
-/// to a target error, and the switch to the per-pixel error view.
-fn convergence(ui: &mut Ui, state: &mut ViewerState) {
+/// to a target error, the target error mode (the noise threshold), and the false-colour
+/// views of per-pixel error and samples with their legends.
+fn convergence(ui: &mut Ui, state: &mut ViewerState, ui_state: &mut UiState) {
     let log = &state.convergence;
     let to_log = |points: &[[f64; 2]]| points.iter().map(|p| [p[0].log10(), p[1].log10()]).collect::<Vec<_>>();
     let power_of_ten = |mark: GridMark, _: &std::ops::RangeInclusive<f64>| significant(10f64.powf(mark.value));
@@ -212,19 +227,53 @@ fn convergence(ui: &mut Ui, state: &mut ViewerState) {
                 plot.line(Line::new(format!("#{} {} (now)", c.number, c.label), to_log(&c.points)).width(2.5));
             }
         });
+    // The target error (shared with the progress target); in target error mode it is the
+    // noise threshold itself.
+    let threshold = state.settings.noise_threshold;
+    let shown = threshold.map_or(100.0 * state.target.error, |t| 100.0 * t as f64);
+    let mut percent = shown;
     ui.horizontal(|ui| {
         ui.label("target error");
-        let mut percent = 100.0 * state.target.error;
-        if ui.add(egui::DragValue::new(&mut percent).range(0.01..=100.0).speed(0.05).suffix(" %")).changed() {
-            state.target.error = percent / 100.0;
-        }
+        ui.add(egui::DragValue::new(&mut percent).range(0.01..=100.0).speed(0.05).suffix(" %"));
     });
-    ui.label(match log.time_to(state.target.error) {
+    ui.label(match log.time_to(percent / 100.0) {
         Some(0.0) => "reached".to_string(),
         Some(t) => format!("about {t:.0} s more at this rate (error ~ time^-1/2)"),
         None => "-".to_string(),
     });
-    ui.checkbox(&mut state.show_error, "show per-pixel error (false colour, 0.1% dark to 100% bright)");
+    let table = Settings::table();
+    let mut stop = threshold.is_some();
+    if let Some(p) = table.iter().find(|p| p.name == "noise-threshold") {
+        ui.checkbox(&mut stop, "stop pixels at the target (noise threshold)").on_hover_text(p.help);
+    }
+    state.target.error = percent / 100.0;
+    if stop != threshold.is_some() || percent != shown {
+        state.settings.noise_threshold = stop.then_some((percent / 100.0) as f32);
+    }
+    for p in table.iter().filter(|p| p.group == Group::Convergence && p.name != "noise-threshold") {
+        param_widget(ui, p, &mut state.settings);
+    }
+    ui.horizontal(|ui| {
+        ui.label("show");
+        ui.radio_value(&mut state.view, ImageView::Image, "image");
+        ui.radio_value(&mut state.view, ImageView::Error, "per-pixel error");
+        ui.radio_value(&mut state.view, ImageView::Spp, "samples per pixel");
+    });
+    let percent = |v: f32| format!("{}%", 100.0 * v);
+    match (state.view, &ui_state.shown) {
+        (ImageView::Error, _) => {
+            let (low, high) = false_colour::ERROR_RANGE;
+            legend(ui, false_colour::error_scale, [percent(low), percent((low * high).sqrt()), percent(high)]);
+            ui.label("relative standard error of luminance, log scale");
+        }
+        (ImageView::Spp, Some(s)) => {
+            let (low, high) = false_colour::spp_range(&s.pixel_spp, s.spp);
+            let mid = ((low.max(1) as f64) * (high.max(1) as f64)).sqrt().round();
+            legend(ui, false_colour::spp_scale, [low.to_string(), mid.to_string(), high.to_string()]);
+            ui.label("samples per pixel, log scale");
+        }
+        _ => {}
+    }
 }
 
 /// A tick value with three significant digits and no trailing zeros ("0.025", "10", "1.5").

@@ -1,4 +1,5 @@
-//! Widgets shared by the panels: one per parameter-table entry, and colour-with-magnitude.
+//! Widgets shared by the panels: one per parameter-table entry, colour-with-magnitude, and
+//! the legend of a false-colour scale.
 
 use crate::params::{Domain, Param, Value};
 use egui::Ui;
@@ -112,6 +113,28 @@ fn hsv_picker(ui: &mut Ui, rgb: &mut Vec3, max: f32) -> bool {
         *rgb = Vec3::from(hsv.to_rgb()).clamp(Vec3::ZERO, Vec3::splat(max));
     }
     changed
+}
+
+/// A false-colour scale as a bar (`scale(t)` for t from 0 to 1) with its low, middle and
+/// high values written under its ends and centre.
+pub(super) fn legend(ui: &mut Ui, scale: fn(f64) -> [u8; 4], labels: [String; 3]) {
+    let width = ui.available_width().min(260.0);
+    let (rect, _) = ui.allocate_exact_size(egui::vec2(width, 14.0), egui::Sense::hover());
+    const STEPS: usize = 64;
+    for k in 0..STEPS {
+        let [r, g, b, _] = scale((k as f64 + 0.5) / STEPS as f64);
+        let x0 = rect.left() + rect.width() * k as f32 / STEPS as f32;
+        let x1 = rect.left() + rect.width() * (k + 1) as f32 / STEPS as f32;
+        let cell = egui::Rect::from_min_max(egui::pos2(x0, rect.top()), egui::pos2(x1 + 0.5, rect.bottom()));
+        ui.painter().rect_filled(cell, 0.0, egui::Color32::from_rgb(r, g, b));
+    }
+    let (rect, _) = ui.allocate_exact_size(egui::vec2(width, 14.0), egui::Sense::hover());
+    let font = egui::FontId::proportional(11.0);
+    let colour = ui.visuals().text_color();
+    let [low, mid, high] = labels;
+    ui.painter().text(rect.left_top(), egui::Align2::LEFT_TOP, low, font.clone(), colour);
+    ui.painter().text(rect.center_top(), egui::Align2::CENTER_TOP, mid, font.clone(), colour);
+    ui.painter().text(rect.right_top(), egui::Align2::RIGHT_TOP, high, font, colour);
 }
 
 /// Colour and magnitude of an RGB quantity, edited separately; returns the new value only
