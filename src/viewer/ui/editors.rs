@@ -34,12 +34,15 @@ fn material_list(ui: &mut Ui, state: &mut ViewerState) {
     let name = |i: u32| format!("{i}: {}", state.scene.materials[i as usize].name);
     let shown = state.selected.map_or_else(|| "none (click the image or choose)".into(), name);
     let mut selected = state.selected;
-    egui::ComboBox::from_id_salt("materials").selected_text(shown).width(ui.available_width()).show_ui(ui, |ui| {
-        ui.selectable_value(&mut selected, None, "none");
-        for i in 0..state.scene.materials.len() as u32 {
-            ui.selectable_value(&mut selected, Some(i), name(i));
-        }
-    });
+    egui::ComboBox::from_id_salt("materials").selected_text(shown).width(ui.available_width() - 40.0).show_ui(
+        ui,
+        |ui| {
+            ui.selectable_value(&mut selected, None, "none");
+            for i in 0..state.scene.materials.len() as u32 {
+                ui.selectable_value(&mut selected, Some(i), name(i));
+            }
+        },
+    );
     state.selected = selected;
 }
 
@@ -172,15 +175,12 @@ fn save(ui: &mut Ui, state: &mut ViewerState) {
     }
     ui.label("save the scene with these materials and lights");
     let result_id = ui.scope_id().with("saved");
-    ui.horizontal(|ui| {
-        ui.text_edit_singleline(&mut state.gltf_path).on_hover_text(
-            "a .gltf beside its buffers and images (its URIs follow it elsewhere), or a .glb for a .glb",
-        );
-        if ui.button("Save glTF").clicked() {
-            let result = state.save_gltf().map(|p| format!("saved {}", p.display()));
-            ui.data_mut(|d| d.insert_temp(result_id, result));
-        }
-    });
+    ui.add(egui::TextEdit::singleline(&mut state.gltf_path).desired_width(f32::INFINITY))
+        .on_hover_text("a .gltf beside its buffers and images (its URIs follow it elsewhere), or a .glb for a .glb");
+    if ui.button("Save glTF").clicked() {
+        let result = state.save_gltf().map(|p| format!("saved {}", p.display()));
+        ui.data_mut(|d| d.insert_temp(result_id, result));
+    }
     match ui.data(|d| d.get_temp::<Result<String, String>>(result_id)) {
         Some(Ok(saved)) => {
             ui.label(saved);

@@ -32,7 +32,7 @@ impl ToolsUi {
 
 /// The target picker and a progress bar with the time left.
 pub(super) fn progress(ui: &mut Ui, state: &mut ViewerState) {
-    ui.horizontal(|ui| {
+    ui.horizontal_wrapped(|ui| {
         ui.label("target");
         let kinds = [(TargetKind::Spp, "spp"), (TargetKind::Time, "time"), (TargetKind::Error, "error")];
         for (kind, name) in kinds {
@@ -40,7 +40,8 @@ pub(super) fn progress(ui: &mut Ui, state: &mut ViewerState) {
         }
         match state.target.kind {
             TargetKind::Spp => {
-                let text = state.settings.target_spp.map_or("off (set it under Estimator)".into(), |n| format!("{n}"));
+                let text =
+                    state.settings.target_spp.map_or("off (stop at spp, under Estimator)".into(), |n| format!("{n}"));
                 ui.label(text);
             }
             TargetKind::Time => {
@@ -70,7 +71,7 @@ pub(super) fn probes(ui: &mut Ui, state: &mut ViewerState, ui_state: &UiState) {
     let Some(snap) = ui_state.shown.as_deref() else { return };
     let mut remove = None;
     for (k, values) in state.probes.values(snap).iter().enumerate() {
-        ui.horizontal(|ui| {
+        ui.horizontal_wrapped(|ui| {
             if ui.small_button("x").on_hover_text("remove this probe").clicked() {
                 remove = Some(k);
             }
