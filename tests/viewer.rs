@@ -358,6 +358,52 @@ fn the_real_window_saves_the_same_image_as_the_headless_renderer() {
     assert_eq!((png.width(), png.height()), (64, 48));
 }
 
+#[test]
+fn the_real_window_saves_its_edited_scene_as_gltf_that_renders_the_same_image() {
+    let Some((xvfb, dir, runtime)) = under_xvfb("e2e-gltf") else { return };
+    let view = dir.join("tuned.toml");
+    let edits =
+        "[[materials]]\nindex = 0\nname = \"white\"\nbase_color = [0.2, 0.5, 0.8]\nroughness = 0.3\nmetallic = 0.5\n";
+    std::fs::write(&view, edits).unwrap();
+    let (shot, gltf) = (dir.join("shot.png"), dir.join("tuned.gltf"));
+    let args = ["--spp", "4", "--width", "64", "--height", "48", "--seed", "5"];
+    let out = Command::new(xvfb)
+        .args(["-a", "-s", "-screen 0 1280x800x24", env!("CARGO_BIN_EXE_lucent"), "view", "--view"])
+        .arg(&view)
+        .args(args)
+        .arg("--screenshot")
+        .arg(&shot)
+        .arg("--save-gltf")
+        .arg(&gltf)
+        .env_remove("WAYLAND_DISPLAY")
+        .env("XDG_RUNTIME_DIR", &runtime)
+        .output()
+        .unwrap();
+    let log = format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+    assert!(out.status.success(), "viewer failed: {log}");
+    let json: serde_json::Value = serde_json::from_slice(&std::fs::read(&gltf).expect("the window wrote it")).unwrap();
+    let pbr = &json["materials"][0]["pbrMetallicRoughness"];
+    assert_eq!((pbr["roughnessFactor"].as_f64(), pbr["metallicFactor"].as_f64()), (Some(0.3), Some(0.5)), "{pbr}");
+    let reference = dir.join("ref.exr");
+    let status = Command::new(env!("CARGO_BIN_EXE_lucent"))
+        .arg("render")
+        .arg(&gltf)
+        .args(args)
+        .arg("--out")
+        .arg(&reference)
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let a = image::open(shot.with_extension("exr")).unwrap().into_rgb32f();
+    let b = image::open(&reference).unwrap().into_rgb32f();
+    assert!(a.as_raw() == b.as_raw(), "the saved scene renders what the window showed");
+    let plain = dir.join("plain.exr");
+    let status = Command::new(env!("CARGO_BIN_EXE_lucent")).arg("render").args(args).arg("--out").arg(&plain).status();
+    assert!(status.unwrap().success());
+    let c = image::open(&plain).unwrap().into_rgb32f();
+    assert!(a.as_raw() != c.as_raw(), "the edits changed the image");
+}
+
 #[cfg(feature = "denoise")]
 #[test]
 fn the_real_window_denoises_its_last_snapshot_as_the_headless_renderer_does() {

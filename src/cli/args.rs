@@ -360,6 +360,10 @@ pub struct ViewArgs {
     /// it split with the live one, instead of the scene's last pinned image.
     #[arg(long, value_name = "IMAGE")]
     pub compare: Option<PathBuf>,
+    /// Where "Save glTF" writes the scene with its edits (from --view, or made in the
+    /// window); with --screenshot it is written beside the screenshot as the viewer exits.
+    #[arg(long, value_name = "OUT")]
+    pub save_gltf: Option<PathBuf>,
     /// Shared render options.
     #[command(flatten)]
     pub options: RenderOptions,

@@ -13,7 +13,7 @@ mod plot;
 pub mod render;
 mod throughput;
 
-use crate::film::output::{Format, check_writable};
+use crate::film::output::{Format, check_can_write, check_writable};
 use crate::viewer::Launch;
 use clap::Parser;
 use std::process::ExitCode;
@@ -50,7 +50,11 @@ pub fn launch(args: &args::ViewArgs) -> Result<Launch, String> {
             return Err(format!("--screenshot {} must name a .png (the .exr is written beside it)", shot.display()));
         }
     }
+    if let Some(gltf) = &args.save_gltf {
+        check_can_write(gltf).map_err(|e| e.to_string())?;
+    }
     Ok(Launch {
+        save_gltf: args.save_gltf.clone(),
         scene: args.scene.clone(),
         view,
         file_camera: args.options.camera,

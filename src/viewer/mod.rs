@@ -60,13 +60,25 @@ pub struct Launch {
     pub denoise: bool,
     /// Pin this linear image for before/after comparison instead of the scene's last pin.
     pub compare: Option<PathBuf>,
+    /// The path "Save glTF" writes to; with a screenshot, written as the viewer exits.
+    pub save_gltf: Option<PathBuf>,
 }
 
 /// Opens the viewer (on a folder of pieces: their merge as they arrive); with a screenshot
 /// path, renders to the target spp, saves and exits.
 pub fn run(launch: Launch) -> Result<(), String> {
-    let Launch { scene: path, view, file_camera, fixed_size, keep_dark, threads, screenshot, denoise, compare } =
-        launch;
+    let Launch {
+        scene: path,
+        view,
+        file_camera,
+        fixed_size,
+        keep_dark,
+        threads,
+        screenshot,
+        denoise,
+        compare,
+        save_gltf,
+    } = launch;
     if let Some(dir) = path.as_ref().filter(|p| p.is_dir()) {
         if denoise {
             return Err("--denoise needs a scene: pieces carry no albedo and normal images".into());
@@ -88,6 +100,9 @@ pub fn run(launch: Launch) -> Result<(), String> {
     let mut state = ViewerState::new(scene, path, view.settings, fixed_size, view.display, camera, threads)?;
     state.apply_edits(&view)?;
     state.denoiser.enabled = denoise;
+    if let Some(gltf) = &save_gltf {
+        state.gltf_path = gltf.display().to_string();
+    }
     state.compare.store = compare::PinStore::user();
     match compare {
         Some(file) => state.compare_with(&file)?,
@@ -95,6 +110,7 @@ pub fn run(launch: Launch) -> Result<(), String> {
     }
     let event_loop = EventLoop::new().map_err(|e| format!("cannot open a window: {e}"))?;
     let mut app = App::new(state, screenshot);
+    app.save_gltf = save_gltf.is_some();
     event_loop.run_app(&mut app).map_err(|e| format!("the window's event loop failed: {e}"))?;
     if app.screenshot.is_none() {
         eprintln!("{}", app.summary());
@@ -133,6 +149,8 @@ struct App {
     egui: egui::Context,
     window: Option<WindowParts>,
     screenshot: Option<PathBuf>,
+    /// In screenshot mode, also write the scene as glTF (to `state.gltf_path`).
+    save_gltf: bool,
     /// When egui asked to be drawn again.
     repaint_at: Option<Instant>,
     /// Whether something asked for a frame since the last one.
@@ -154,6 +172,7 @@ impl App {
             egui: egui::Context::default(),
             window: None,
             screenshot,
+            save_gltf: false,
             repaint_at: None,
             redraw_wanted: true,
             shown_at: Instant::now(),
@@ -277,7 +296,10 @@ impl App {
             }
             return;
         }
-        match self.state.save_images(&snap, path) {
+        match self.state.save_images(&snap, path).and_then(|()| match self.save_gltf {
+            true => self.state.save_gltf().map(|_| ()),
+            false => Ok(()),
+        }) {
             Ok(()) => {
                 println!("{}; {}; wrote {}", snap.summary(&self.state.scene.name), self.summary(), path.display());
                 event_loop.exit();
