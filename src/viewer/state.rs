@@ -338,8 +338,8 @@ impl ViewerState {
         let snap = self.session.snapshot();
         if snap.is_some() && self.awaiting_first_image {
             self.awaiting_first_image = false;
-            let divisor = self.effective_settings_full().width / self.sent.settings.width.max(1);
-            self.latencies.push((self.restarted.elapsed(), divisor.next_power_of_two()));
+            let divisor = self.effective_settings_full().width as f32 / self.sent.settings.width.max(1) as f32;
+            self.latencies.push((self.restarted.elapsed(), (divisor.round() as u32).next_power_of_two()));
         }
         if snap.is_some() && !self.moving && self.divisor > 1 && self.sent.settings == self.effective_settings() {
             self.divisor /= 2;

@@ -53,10 +53,10 @@ impl UiState {
 pub fn draw(ui: &mut Ui, state: &mut ViewerState, ui_state: &mut UiState) {
     // The panel's width changes only when the user drags its edge: content wraps or is
     // cut, and the scroll bar floats over it, so the image (and its resolution) stays put.
-    egui::Panel::left("controls").resizable(true).default_size(320.0).size_range(260.0..=520.0).show(ui, |ui| {
+    egui::Panel::left("controls").resizable(true).default_size(330.0).size_range(260.0..=520.0).show(ui, |ui| {
         egui::ScrollArea::vertical().auto_shrink([false; 2]).show(ui, |ui| controls(ui, state, ui_state));
     });
-    egui::Panel::right("editors").resizable(true).default_size(280.0).size_range(220.0..=560.0).show(ui, |ui| {
+    egui::Panel::right("editors").resizable(true).default_size(350.0).size_range(220.0..=560.0).show(ui, |ui| {
         egui::ScrollArea::vertical().auto_shrink(false).show(ui, |ui| editors::editors(ui, state));
     });
     egui::CentralPanel::no_frame().show(ui, |ui| image::image(ui, state, ui_state));
