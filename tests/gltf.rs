@@ -219,3 +219,89 @@ fn bad_files_are_refused_in_the_users_words() {
         );
     }
 }
+
+/// A one-triangle glTF with integer attributes: POSITION i8 (0, 0, 0), (2, 0, 0), (0, 2, 0)
+/// not normalized, at stride 4, under a node scale of 0.5; NORMAL i8 normalized (127, 0, 127);
+/// TEXCOORD_0 u8 (0, 0), (3, 0), (0, 3) not normalized; TEXCOORD_1 i16 normalized
+/// (-32768, 32767). `root` is merged into the document (extensionsUsed and so on).
+fn quantized_triangle(root: Value) -> Vec<u8> {
+    let mut bytes: Vec<u8> = Vec::new();
+    for p in [[0i8, 0, 0], [2, 0, 0], [0, 2, 0]] {
+        bytes.extend(p.iter().map(|&c| c as u8).chain([0]));
+    }
+    for _ in 0..3 {
+        bytes.extend([127u8, 0, 127, 0]);
+    }
+    for uv in [[0u8, 0], [3, 0], [0, 3]] {
+        bytes.extend(uv.iter().chain(&[0, 0]));
+    }
+    for _ in 0..3 {
+        bytes.extend(i16::MIN.to_le_bytes().iter().chain(&i16::MAX.to_le_bytes()));
+    }
+    let uri =
+        format!("data:application/octet-stream;base64,{}", base64::engine::general_purpose::STANDARD.encode(&bytes));
+    let mut doc = json!({
+        "asset": {"version": "2.0"},
+        "scene": 0,
+        "scenes": [{"nodes": [0]}],
+        "nodes": [{"mesh": 0, "scale": [0.5, 0.5, 0.5]}],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "NORMAL": 1, "TEXCOORD_0": 2, "TEXCOORD_1": 3}}]}],
+        "buffers": [{"byteLength": bytes.len(), "uri": uri}],
+        "bufferViews": [
+            {"buffer": 0, "byteOffset": 0, "byteLength": 12, "byteStride": 4},
+            {"buffer": 0, "byteOffset": 12, "byteLength": 12, "byteStride": 4},
+            {"buffer": 0, "byteOffset": 24, "byteLength": 12, "byteStride": 4},
+            {"buffer": 0, "byteOffset": 36, "byteLength": 12}
+        ],
+        "accessors": [
+            {"bufferView": 0, "componentType": 5120, "count": 3, "type": "VEC3", "min": [0, 0, 0], "max": [2, 2, 0]},
+            {"bufferView": 1, "componentType": 5120, "normalized": true, "count": 3, "type": "VEC3"},
+            {"bufferView": 2, "componentType": 5121, "count": 3, "type": "VEC2"},
+            {"bufferView": 3, "componentType": 5122, "normalized": true, "count": 3, "type": "VEC2"}
+        ]
+    });
+    if let (Value::Object(doc), Value::Object(root)) = (&mut doc, root) {
+        doc.extend(root);
+    }
+    serde_json::to_vec(&doc).unwrap()
+}
+
+#[test]
+fn quantized_attributes_dequantize_as_the_spec_says() {
+    let used = json!({"extensionsUsed": ["KHR_mesh_quantization"], "extensionsRequired": ["KHR_mesh_quantization"]});
+    let desc = gltf::load(&temp("quantized.gltf", &quantized_triangle(used))).unwrap_or_else(|e| panic!("{e}"));
+    let mesh = &desc.meshes[0];
+    let span = |axis: usize| {
+        let v: Vec<f32> = mesh.positions.iter().map(|p| p[axis]).collect();
+        v.iter().fold(f32::MIN, |a, &b| a.max(b)) - v.iter().fold(f32::MAX, |a, &b| a.min(b))
+    };
+    assert_eq!((span(0), span(1), span(2)), (1.0, 1.0, 0.0), "i8 codes 0 and 2, not normalized, under scale 0.5");
+    let n = mesh.normals.as_ref().unwrap()[0];
+    assert!((n - Vec3::new(1.0, 0.0, 1.0).normalize()).length() < 1e-6, "normal {n}");
+    assert_eq!(mesh.uvs.as_ref().unwrap(), &[glam::Vec2::ZERO, glam::Vec2::new(3.0, 0.0), glam::Vec2::new(0.0, 3.0)]);
+    assert_eq!(mesh.uvs1.as_ref().unwrap()[0], glam::Vec2::new(-1.0, 1.0), "i16 -32768 and 32767 normalized");
+}
+
+#[test]
+fn required_extensions_are_decided_by_lucents_own_list() {
+    let load = |name: &str, root: Value| {
+        gltf::load(&temp(name, &quantized_triangle(root))).map(|_| ()).map_err(|e| e.to_string())
+    };
+    let err = load("unquantized.gltf", json!({})).unwrap_err();
+    assert!(err.contains("accessor 0 is Vec3 of I8, which POSITION cannot be"), "{err}");
+    let meshopt = json!({
+        "extensionsUsed": ["KHR_mesh_quantization", "EXT_meshopt_compression"],
+        "extensionsRequired": ["KHR_mesh_quantization", "EXT_meshopt_compression"]
+    });
+    let err = load("meshopt.gltf", meshopt).unwrap_err();
+    assert!(
+        err.ends_with("requires the glTF extension EXT_meshopt_compression, which Lucent does not support"),
+        "{err}"
+    );
+    // gltf-json's own list leaves out extensions Lucent renders, such as KHR_materials_volume.
+    let volume = json!({
+        "extensionsUsed": ["KHR_mesh_quantization", "KHR_materials_volume"],
+        "extensionsRequired": ["KHR_mesh_quantization", "KHR_materials_volume"]
+    });
+    load("volume.gltf", volume).unwrap();
+}

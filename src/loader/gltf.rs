@@ -11,7 +11,7 @@
 
 use super::limits::{self, Attributes, Limits, PrimitiveShape, format_bytes};
 use super::resources::{self, Encoded, Tally};
-use super::{LoadError, Refusal, graph};
+use super::{LoadError, Refusal, attributes, graph};
 use crate::medium::phase::MAX_G;
 use crate::scene::{
     MeshDesc, SceneDesc,
@@ -42,6 +42,7 @@ const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_texture_transform",
     "KHR_lights_punctual",
     "KHR_xmp",
+    attributes::QUANTIZATION,
 ];
 
 /// Loads a .gltf or .glb file within the machine's default `Limits`.
@@ -138,7 +139,7 @@ fn read(bytes: &[u8], base: Option<&Path>, limits: &Limits) -> Result<Read, Refu
     }
     let gltf::Gltf { document, blob } = parse(bytes)?;
     check_position_accessors(&document)?;
-    let document = Document::from_json(document.into_json()).map_err(|e| describe(&e))?;
+    let document = Document::from_json(required_checked(document.into_json())?).map_err(|e| describe(&e))?;
     check_image_sources(&document)?;
     let roots: Vec<usize> = document
         .default_scene()
@@ -151,6 +152,17 @@ fn read(bytes: &[u8], base: Option<&Path>, limits: &Limits) -> Result<Read, Refu
     let placed = check_primitives(&document, &buffers, &placements)?;
     let estimate = Estimate::new(&document, tally.used, bytes.len() as u64, &placed, &placements);
     Ok(Read { document, buffers, tally, estimate })
+}
+
+/// Refuses a file that requires an extension Lucent does not support, naming it; the
+/// document is returned with its extensionsRequired emptied, so that gltf-json's validation
+/// (which knows only its own short list) checks the rest.
+fn required_checked(mut json: gltf::json::Root) -> Result<gltf::json::Root, String> {
+    if let Some(ext) = json.extensions_required.iter().find(|e| !SUPPORTED_EXTENSIONS.contains(&e.as_str())) {
+        return Err(format!("the file requires the glTF extension {ext}, which Lucent does not support"));
+    }
+    json.extensions_required.clear();
+    Ok(json)
 }
 
 /// The JSON text of a .gltf, or of a GLB's first chunk (the whole input if it is neither).
@@ -247,11 +259,12 @@ fn check_primitives(doc: &Document, buffers: &[buffer::Data], placements: &[u64]
             copies[m.index()] = copies[m.index()].saturating_add(placements[node.index()]);
         }
     }
+    let quantized = doc.extensions_used().any(|e| e == attributes::QUANTIZATION);
     let mut placed = Vec::new();
     for mesh in doc.meshes().filter(|m| copies[m.index()] > 0) {
         for prim in mesh.primitives() {
             let name_bytes = mesh.name().map_or(4, str::len) as u64;
-            if let Some((shape, sparse)) = primitive_shape(&prim, name_bytes, buffers)? {
+            if let Some((shape, sparse)) = primitive_shape(&prim, name_bytes, buffers, quantized)? {
                 let name = format!("meshes[{}].primitives[{}]", mesh.index(), prim.index());
                 placed.push(Placed { name, copies: copies[mesh.index()], shape, sparse });
             }
@@ -270,6 +283,7 @@ fn primitive_shape(
     prim: &gltf::Primitive,
     name: u64,
     buffers: &[buffer::Data],
+    quantized: bool,
 ) -> Result<Option<(PrimitiveShape, Option<Sparse>)>, String> {
     let mode = prim.mode();
     if !matches!(mode, Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan) {
@@ -277,12 +291,12 @@ fn primitive_shape(
     }
     for (semantic, accessor) in prim.attributes() {
         check_accessor(&accessor, buffers)?;
-        check_attribute_type(&semantic, &accessor)?;
+        check_attribute_type(&semantic, &accessor, quantized)?;
     }
     let indices = prim.indices();
     if let Some(i) = &indices {
         check_accessor(i, buffers)?;
-        check_attribute_type(&Semantic::Weights(u32::MAX), i)?;
+        check_attribute_type(&Semantic::Weights(u32::MAX), i, quantized)?;
     }
     let Some(positions) = prim.get(&Semantic::Positions) else { return Ok(None) };
     let normal_mapped = prim.material().normal_texture().is_some();
@@ -894,24 +908,15 @@ fn check_accessor(a: &gltf::Accessor, buffers: &[buffer::Data]) -> Result<(), St
 }
 
 /// Rejects an attribute (or, for `Weights(u32::MAX)`, the indices) whose accessor type is
-/// not one the spec allows for it: gltf 1.4.1 reads it as the allowed type regardless and
-/// asserts on the length.
-fn check_attribute_type(semantic: &Semantic, a: &gltf::Accessor) -> Result<(), String> {
-    use gltf::accessor::{DataType as T, Dimensions as D};
-    let (dims, ty) = (a.dimensions(), a.data_type());
-    let ok = match semantic {
-        Semantic::Positions | Semantic::Normals => dims == D::Vec3 && ty == T::F32,
-        Semantic::TexCoords(_) => dims == D::Vec2 && matches!(ty, T::F32 | T::U8 | T::U16),
-        Semantic::Colors(_) => matches!(dims, D::Vec3 | D::Vec4) && matches!(ty, T::F32 | T::U8 | T::U16),
-        Semantic::Tangents => dims == D::Vec4 && ty == T::F32,
-        Semantic::Weights(u32::MAX) => dims == D::Scalar && matches!(ty, T::U8 | T::U16 | T::U32),
-        _ => true,
-    };
-    if ok {
+/// not one the spec (with KHR_mesh_quantization when `quantized`) allows for it.
+fn check_attribute_type(semantic: &Semantic, a: &gltf::Accessor, quantized: bool) -> Result<(), String> {
+    if attributes::allowed(semantic, a, quantized) {
         return Ok(());
     }
+    let (dims, ty) = (a.dimensions(), a.data_type());
+    let norm = if a.normalized() { "normalized " } else { "" };
     let what = if matches!(semantic, Semantic::Weights(u32::MAX)) { "indices".into() } else { semantic.to_string() };
-    Err(format!("invalid glTF: accessor {} is {dims:?} of {ty:?}, which {what} cannot be", a.index()))
+    Err(format!("invalid glTF: accessor {} is {dims:?} of {norm}{ty:?}, which {what} cannot be", a.index()))
 }
 
 fn convert_primitive(
@@ -928,33 +933,52 @@ fn convert_primitive(
         return Ok(None);
     }
     // check_primitives has checked the accessors and that the attributes' counts agree.
-    let reader = prim.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
-    let Some(positions) = reader.read_positions() else {
+    let get = |b: gltf::Buffer| buffers.get(b.index()).map(|d| &d.0[..]);
+    let reader = prim.reader(get);
+    let read = |semantic: Semantic| prim.get(&semantic);
+    let unreadable = |a: &gltf::Accessor| format!("accessor {} cannot be read", a.index());
+    let Some(position_accessor) = read(Semantic::Positions) else {
         warnings.add("a primitive without POSITION was skipped");
         return Ok(None);
     };
-    let positions: Vec<DVec3> = positions.map(|p| world.transform_point3(Vec3::from(p).as_dvec3())).collect();
+    let positions = attributes::read::<3>(&position_accessor, get).ok_or_else(|| unreadable(&position_accessor))?;
+    let positions: Vec<DVec3> =
+        positions.into_iter().map(|p| world.transform_point3(Vec3::from(p).as_dvec3())).collect();
     let n = positions.len();
     let normal_matrix = DMat3::from_mat4(world).inverse().transpose();
-    let normals = if prim.get(&Semantic::Normals).is_some() {
-        reader.read_normals().map(|it| {
-            it.map(|v| (normal_matrix * Vec3::from(v).as_dvec3()).normalize_or_zero().as_vec3()).collect::<Vec<_>>()
-        })
-    } else {
-        None
+    let normals = match read(Semantic::Normals) {
+        Some(a) => Some(
+            attributes::read::<3>(&a, get)
+                .ok_or_else(|| unreadable(&a))?
+                .into_iter()
+                .map(|v| (normal_matrix * Vec3::from(v).as_dvec3()).normalize_or_zero().as_vec3())
+                .collect::<Vec<_>>(),
+        ),
+        None => None,
     };
-    let uvs = reader.read_tex_coords(0).map(|t| t.into_f32().map(Vec2::from).collect::<Vec<_>>());
-    let uvs1 = reader.read_tex_coords(1).map(|t| t.into_f32().map(Vec2::from).collect::<Vec<_>>());
+    let uv = |set: u32| -> Result<Option<Vec<Vec2>>, String> {
+        read(Semantic::TexCoords(set))
+            .map(|a| attributes::read::<2>(&a, get).ok_or_else(|| unreadable(&a)))
+            .transpose()
+            .map(|v| v.map(|v| v.into_iter().map(Vec2::from).collect()))
+    };
+    let (uvs, uvs1) = (uv(0)?, uv(1)?);
     let colors = reader.read_colors(0).map(|c| c.into_rgba_f32().map(Vec4::from).collect::<Vec<_>>());
     let linear = DMat3::from_mat4(world);
     let handedness = world.determinant().signum() as f32;
-    let tangents = reader.read_tangents().filter(|_| normal_mapped).map(|t| {
-        t.map(|v| {
-            let xyz = (linear * Vec3::new(v[0], v[1], v[2]).as_dvec3()).normalize_or_zero().as_vec3();
-            xyz.extend(v[3] * handedness)
-        })
-        .collect::<Vec<_>>()
-    });
+    let tangents = match read(Semantic::Tangents).filter(|_| normal_mapped) {
+        Some(a) => Some(
+            attributes::read::<4>(&a, get)
+                .ok_or_else(|| unreadable(&a))?
+                .into_iter()
+                .map(|v| {
+                    let xyz = (linear * Vec3::new(v[0], v[1], v[2]).as_dvec3()).normalize_or_zero().as_vec3();
+                    xyz.extend(v[3] * handedness)
+                })
+                .collect::<Vec<_>>(),
+        ),
+        None => None,
+    };
     let raw: Vec<u32> = match reader.read_indices() {
         Some(i) => i.into_u32().collect(),
         None => (0..n as u32).collect(),

@@ -1,5 +1,6 @@
 //! Scene loaders: glTF 2.0 files and the built-in Cornell box.
 
+mod attributes;
 pub mod builtin;
 pub mod gltf;
 mod graph;
