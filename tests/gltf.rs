@@ -289,13 +289,13 @@ fn required_extensions_are_decided_by_lucents_own_list() {
     };
     let err = load("unquantized.gltf", json!({})).unwrap_err();
     assert!(err.contains("accessor 0 is Vec3 of I8, which POSITION cannot be"), "{err}");
-    let meshopt = json!({
-        "extensionsUsed": ["KHR_mesh_quantization", "EXT_meshopt_compression"],
-        "extensionsRequired": ["KHR_mesh_quantization", "EXT_meshopt_compression"]
+    let draco = json!({
+        "extensionsUsed": ["KHR_mesh_quantization", "KHR_draco_mesh_compression"],
+        "extensionsRequired": ["KHR_mesh_quantization", "KHR_draco_mesh_compression"]
     });
-    let err = load("meshopt.gltf", meshopt).unwrap_err();
+    let err = load("draco.gltf", draco).unwrap_err();
     assert!(
-        err.ends_with("requires the glTF extension EXT_meshopt_compression, which Lucent does not support"),
+        err.ends_with("requires the glTF extension KHR_draco_mesh_compression, which Lucent does not support"),
         "{err}"
     );
     // gltf-json's own list leaves out extensions Lucent renders, such as KHR_materials_volume.

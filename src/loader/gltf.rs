@@ -11,7 +11,7 @@
 
 use super::limits::{self, Attributes, Limits, PrimitiveShape, format_bytes};
 use super::resources::{self, Encoded, Tally};
-use super::{LoadError, Refusal, attributes, graph};
+use super::{LoadError, Refusal, attributes, graph, meshopt};
 use crate::medium::phase::MAX_G;
 use crate::scene::{
     MeshDesc, SceneDesc,
@@ -43,6 +43,7 @@ const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_lights_punctual",
     "KHR_xmp",
     attributes::QUANTIZATION,
+    meshopt::EXTENSION,
 ];
 
 /// Loads a .gltf or .glb file within the machine's default `Limits`.
@@ -147,7 +148,14 @@ fn read(bytes: &[u8], base: Option<&Path>, limits: &Limits) -> Result<Read, Refu
         .map_or_else(Vec::new, |s| s.nodes().map(|n| n.index()).collect());
     let placements = graph::placements(&document, &roots)?;
     tally.used = tally.used.saturating_add(blob.as_ref().map_or(0, |b| b.len() as u64));
-    let buffers = resources::buffers(&document, base, blob, &mut tally)?;
+    let mut buffers = resources::buffers(&document, base, blob, &mut tally)?;
+    let document = if meshopt::used(document.as_json()) {
+        let mut json = document.into_json();
+        meshopt::decode(&mut json, &mut buffers, &mut tally)?;
+        Document::from_json(json).map_err(|e| describe(&e))?
+    } else {
+        document
+    };
     check_buffer_views(&document, &buffers)?;
     let placed = check_primitives(&document, &buffers, &placements)?;
     let estimate = Estimate::new(&document, tally.used, bytes.len() as u64, &placed, &placements);

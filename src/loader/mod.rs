@@ -6,6 +6,7 @@ pub mod gltf;
 mod graph;
 pub mod limits;
 pub mod media;
+mod meshopt;
 mod resources;
 pub mod save;
 pub mod sidecar;

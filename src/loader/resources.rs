@@ -79,7 +79,7 @@ fn read_uri(what: &str, uri: &str, base: Option<&Path>, tally: &Tally) -> Result
 
 /// Reads every buffer of the document, counting each in `tally`: the GLB's BIN chunk
 /// (`blob`), data URIs and files (relative to `base`). Each must hold at least its
-/// byteLength (glTF 2.0, 5.10).
+/// byteLength (glTF 2.0, 5.10). An EXT_meshopt_compression fallback buffer is left empty.
 pub fn buffers(
     doc: &Document,
     base: Option<&Path>,
@@ -88,6 +88,10 @@ pub fn buffers(
 ) -> Result<Vec<buffer::Data>, Refusal> {
     let mut out = Vec::new();
     for b in doc.buffers() {
+        if super::meshopt::is_fallback(doc.as_json(), b.index()) {
+            out.push(buffer::Data(Vec::new()));
+            continue;
+        }
         let what = format!("buffer {}", b.index());
         let (mut data, name) = match b.source() {
             buffer::Source::Bin => match blob.take() {
