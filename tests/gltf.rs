@@ -190,7 +190,10 @@ fn bad_files_are_refused_in_the_users_words() {
         ),
         (
             "missing-image.gltf",
-            with(&|d| d["images"] = json!([{"uri": "missing.png"}])),
+            with(&|d| {
+                d["images"] = json!([{"uri": "missing.png"}]);
+                d["textures"] = json!([{"source": 0}]);
+            }),
             "image 0: cannot read missing.png (no such file), named by ",
         ),
         (
@@ -304,4 +307,44 @@ fn required_extensions_are_decided_by_lucents_own_list() {
         "extensionsRequired": ["KHR_mesh_quantization", "KHR_materials_volume"]
     });
     load("volume.gltf", volume).unwrap();
+}
+
+/// A 3x2 RGBA image encoded as a data URI by the image crate (`format`: PNG or lossless WebP).
+fn image_uri(texels: &[u8], format: image::ImageFormat) -> String {
+    use image::ImageEncoder;
+    let mut bytes = Vec::new();
+    let cursor = &mut std::io::Cursor::new(&mut bytes);
+    match format {
+        image::ImageFormat::WebP => image::codecs::webp::WebPEncoder::new_lossless(cursor)
+            .encode(texels, 3, 2, image::ExtendedColorType::Rgba8)
+            .unwrap(),
+        _ => image::codecs::png::PngEncoder::new(cursor)
+            .write_image(texels, 3, 2, image::ExtendedColorType::Rgba8)
+            .unwrap(),
+    }
+    let mime = if format == image::ImageFormat::WebP { "image/webp" } else { "image/png" };
+    format!("data:{mime};base64,{}", base64::engine::general_purpose::STANDARD.encode(&bytes))
+}
+
+#[test]
+fn webp_textures_are_shown_and_images_no_texture_shows_are_not_read() {
+    let texels: Vec<u8> = (0..24u8).map(|i| i.wrapping_mul(37)).collect();
+    let mut doc: Value = serde_json::from_slice(&one_triangle(json!({"mesh": 0}), [0, 1, 2])).unwrap();
+    doc["extensionsUsed"] = json!(["EXT_texture_webp", "KHR_texture_basisu"]);
+    doc["images"] = json!([
+        {"uri": image_uri(&[255; 24], image::ImageFormat::Png)},
+        {"uri": image_uri(&texels, image::ImageFormat::WebP)},
+        {"uri": "missing.ktx2"}
+    ]);
+    doc["textures"] = json!([
+        {"source": 0, "extensions": {"EXT_texture_webp": {"source": 1}, "KHR_texture_basisu": {"source": 2}}},
+        {"extensions": {"EXT_texture_webp": {"source": 1}}}
+    ]);
+    doc["materials"] = json!([{"pbrMetallicRoughness": {"baseColorTexture": {"index": 1}}}]);
+    doc["meshes"][0]["primitives"][0]["material"] = json!(0);
+    let desc = gltf::load(&temp("webp.gltf", &serde_json::to_vec(&doc).unwrap())).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(desc.textures.iter().map(|t| t.image).collect::<Vec<_>>(), [1, 1], "both textures show the WebP");
+    let webp = &desc.images[1];
+    assert_eq!((webp.width, webp.height), (3, 2));
+    assert_eq!(webp.texels.concat(), texels, "lossless WebP decodes to its source");
 }

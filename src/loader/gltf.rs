@@ -44,7 +44,11 @@ const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_xmp",
     attributes::QUANTIZATION,
     meshopt::EXTENSION,
+    WEBP,
 ];
+
+/// WebP textures, decoded by the image crate.
+const WEBP: &str = "EXT_texture_webp";
 
 /// Loads a .gltf or .glb file within the machine's default `Limits`.
 pub fn load(path: &Path) -> Result<SceneDesc, LoadError> {
@@ -93,7 +97,7 @@ pub fn estimate(path: &Path, limits: &Limits) -> Result<u64, LoadError> {
     let mut read = read(&bytes, path.parent(), limits).map_err(|r| r.at(path))?;
     let encoded = resources::image_headers(&read.document, path.parent(), &read.buffers, &mut read.tally)
         .map_err(|r| r.at(path))?;
-    read.estimate.add_images(&encoded);
+    read.estimate.add_images(&encoded.iter().flatten().collect::<Vec<_>>());
     Ok(read.estimate.total)
 }
 
@@ -106,11 +110,14 @@ fn import(
 ) -> Result<(Document, Vec<buffer::Data>, Vec<Image>), Refusal> {
     let mut read = read(bytes, base, limits)?;
     let encoded = resources::image_headers(&read.document, base, &read.buffers, &mut read.tally)?;
-    read.estimate.add_images(&encoded);
+    read.estimate.add_images(&encoded.iter().flatten().collect::<Vec<_>>());
     read.estimate.check(limits.memory)?;
     let mut images = Vec::with_capacity(encoded.len());
     for image in encoded {
-        images.push(convert_image(resources::decode(image, limits.memory)?));
+        images.push(match image {
+            Some(image) => convert_image(resources::decode(image, limits.memory)?),
+            None => Image { width: 1, height: 1, texels: vec![[0; 4]] },
+        });
     }
     Ok((read.document, read.buffers, images))
 }
@@ -164,12 +171,19 @@ fn read(bytes: &[u8], base: Option<&Path>, limits: &Limits) -> Result<Read, Refu
 
 /// Refuses a file that requires an extension Lucent does not support, naming it; the
 /// document is returned with its extensionsRequired emptied, so that gltf-json's validation
-/// (which knows only its own short list) checks the rest.
+/// (which knows only its own short list) checks the rest, and with each texture showing its
+/// EXT_texture_webp image where it has one (its `source` is then a fallback, or absent).
 fn required_checked(mut json: gltf::json::Root) -> Result<gltf::json::Root, String> {
     if let Some(ext) = json.extensions_required.iter().find(|e| !SUPPORTED_EXTENSIONS.contains(&e.as_str())) {
         return Err(format!("the file requires the glTF extension {ext}, which Lucent does not support"));
     }
     json.extensions_required.clear();
+    for texture in &mut json.textures {
+        let webp = texture.extensions.as_ref().and_then(|e| e.others.get(WEBP)).and_then(|w| w["source"].as_u64());
+        if let Some(source) = webp.and_then(|s| u32::try_from(s).ok()) {
+            texture.source = gltf::json::Index::new(source);
+        }
+    }
     Ok(json)
 }
 
@@ -435,10 +449,10 @@ impl Estimate {
 
     /// Adds the images (their encoded bytes, decoding one at a time, and the textures kept)
     /// and works out the total.
-    fn add_images(&mut self, images: &[Encoded]) {
+    fn add_images(&mut self, images: &[&Encoded]) {
         let texel_bytes = |i: &Encoded| (i.width as u64).saturating_mul(i.height as u64).saturating_mul(limits::TEXEL);
-        let textures = images.iter().map(texel_bytes).fold(0u64, u64::saturating_add);
-        let encoded = images.iter().map(Encoded::held).fold(0u64, u64::saturating_add);
+        let textures = images.iter().map(|i| texel_bytes(i)).fold(0u64, u64::saturating_add);
+        let encoded = images.iter().map(|i| i.held()).fold(0u64, u64::saturating_add);
         let decoded = images.iter().map(|i| limits::decoding(i.decoded)).max().unwrap_or(0);
         for i in images {
             let what = format!("{} is {}x{}, decoding to {}", i.name, i.width, i.height, format_bytes(i.decoded));

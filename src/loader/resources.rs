@@ -138,16 +138,22 @@ impl Encoded<'_> {
     }
 }
 
-/// Reads every image's encoded bytes (counted in `tally`) and its PNG or JPEG header, without
-/// decoding: the header gives the size the decoder will allocate.
+/// Reads the encoded bytes (counted in `tally`) and the PNG, JPEG or WebP header of every
+/// image a texture shows, without decoding: the header gives the size the decoder will
+/// allocate. None for an image no texture shows (a KTX2 beside its fallback, say): unread.
 pub fn image_headers<'a>(
     doc: &Document,
     base: Option<&Path>,
     buffers: &'a [buffer::Data],
     tally: &mut Tally,
-) -> Result<Vec<Encoded<'a>>, Refusal> {
+) -> Result<Vec<Option<Encoded<'a>>>, Refusal> {
+    let shown_images: std::collections::HashSet<usize> = doc.textures().map(|t| t.source().index()).collect();
     let mut out = Vec::new();
     for image in doc.images() {
+        if !shown_images.contains(&image.index()) {
+            out.push(None);
+            continue;
+        }
         let what = format!("image {}", image.index());
         let (bytes, name): (Cow<[u8]>, String) = match image.source() {
             gltf::image::Source::View { view, .. } => {
@@ -164,15 +170,15 @@ pub fn image_headers<'a>(
         let header = |e: &dyn std::fmt::Display| Refusal::Invalid(format!("{name}: {e}"));
         let mut reader = ImageReader::new(Cursor::new(&*bytes)).with_guessed_format().map_err(|e| header(&e))?;
         let format = match reader.format() {
-            Some(f @ (ImageFormat::Png | ImageFormat::Jpeg)) => f,
-            _ => return Err(header(&"not a PNG or JPEG image (glTF 2.0, 3.9.3)")),
+            Some(f @ (ImageFormat::Png | ImageFormat::Jpeg | ImageFormat::WebP)) => f,
+            _ => return Err(header(&"not a PNG, JPEG (glTF 2.0, 3.9.3) or WebP (EXT_texture_webp) image")),
         };
         reader.no_limits();
         let decoder = reader.into_decoder().map_err(|e| header(&e.to_string().replace('\n', " ")))?;
         let (width, height) = decoder.dimensions();
         let decoded = decoder.total_bytes();
         drop(decoder);
-        out.push(Encoded { name, bytes, format, width, height, decoded });
+        out.push(Some(Encoded { name, bytes, format, width, height, decoded }));
     }
     Ok(out)
 }
