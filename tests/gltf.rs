@@ -348,3 +348,22 @@ fn webp_textures_are_shown_and_images_no_texture_shows_are_not_read() {
     assert_eq!((webp.width, webp.height), (3, 2));
     assert_eq!(webp.texels.concat(), texels, "lossless WebP decodes to its source");
 }
+
+#[test]
+fn morph_targets_apply_at_the_nodes_or_meshs_weights_with_a_warning() {
+    // The target's position deltas are the positions themselves (accessor 0), so weight w
+    // scales the triangle by 1 + w.
+    let morphed = |node: Value| {
+        let mut doc: Value = serde_json::from_slice(&one_triangle(node, [0, 1, 2])).unwrap();
+        doc["meshes"][0]["primitives"][0]["targets"] = json!([{"POSITION": 0}]);
+        doc["meshes"][0]["weights"] = json!([0.5]);
+        let desc =
+            gltf::load(&temp("morph.gltf", &serde_json::to_vec(&doc).unwrap())).unwrap_or_else(|e| panic!("{e}"));
+        let xs: Vec<f32> = desc.meshes[0].positions.iter().map(|p| p.x).collect();
+        let span = xs.iter().fold(f32::MIN, |a, &b| a.max(b)) - xs.iter().fold(f32::MAX, |a, &b| a.min(b));
+        assert!(desc.warnings.iter().any(|w| w.contains("morph targets are applied")), "{:?}", desc.warnings);
+        span
+    };
+    assert_eq!(morphed(json!({"mesh": 0})), 1.5, "the mesh's default weight");
+    assert_eq!(morphed(json!({"mesh": 0, "weights": [1.0]})), 2.0, "the node's weights override the mesh's");
+}

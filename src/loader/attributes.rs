@@ -1,5 +1,6 @@
 //! Vertex attributes at every component type glTF 2.0 (3.7.2.1) and KHR_mesh_quantization
-//! allow, dequantized to f32 by the spec's normalization equations (glTF 2.0, 3.11).
+//! allow, dequantized to f32 by the spec's normalization equations (glTF 2.0, 3.11), with
+//! morph targets applied at their weights (3.7.2.2).
 
 use gltf::Semantic;
 use gltf::accessor::{Accessor, DataType as T, Dimensions as D, Item, Iter};
@@ -59,6 +60,24 @@ where
         T::U16 => each(a, get, |c: u16| if norm { f32::from(c) / 65535.0 } else { c.into() }),
         T::U32 => None,
     }
+}
+
+/// Adds to `base` each morph target's deltas (`targets`, one accessor or none per target)
+/// times its weight: the morphed attribute is `base + sum w_i delta_i` (glTF 2.0, 3.7.2.2).
+pub(super) fn morph<'a, 's>(
+    base: &mut [[f32; 3]],
+    targets: impl Iterator<Item = Option<Accessor<'a>>>,
+    weights: &[f32],
+    get: impl Clone + Fn(Buffer<'a>) -> Option<&'s [u8]>,
+) -> Result<(), String> {
+    for (target, &w) in targets.zip(weights) {
+        let Some(a) = target.filter(|_| w != 0.0) else { continue };
+        let deltas = read::<3>(&a, get.clone()).ok_or_else(|| format!("accessor {} cannot be read", a.index()))?;
+        for (v, d) in base.iter_mut().zip(deltas) {
+            (0..3).for_each(|k| v[k] += w * d[k]);
+        }
+    }
+    Ok(())
 }
 
 /// A signed normalized integer as f32: `max(c / max, -1)` (glTF 2.0, 3.11).

@@ -336,6 +336,20 @@ fn primitive_shape(
     if read.iter().any(|a| a.count() != vertices) {
         return Err("vertex attributes of one primitive have different counts".into());
     }
+    for target in prim.morph_targets() {
+        for a in [target.positions(), target.normals(), target.tangents()].into_iter().flatten() {
+            check_accessor(&a, buffers)?;
+            // Deltas are VEC3 of floats or, quantized, of integers, as positions are.
+            check_attribute_type(&Semantic::Positions, &a, quantized)?;
+            if a.count() != vertices {
+                return Err(format!(
+                    "morph target accessor {} has {} elements for {vertices} vertices",
+                    a.index(),
+                    a.count()
+                ));
+            }
+        }
+    }
     let index_count = indices.as_ref().map_or(vertices, |i| i.count()) as u64;
     let triangles = if mode == Mode::Triangles { index_count / 3 } else { index_count.saturating_sub(2) };
     let generates_tangents = normal_mapped && tangents.is_none() && uvs.is_some();
@@ -540,14 +554,23 @@ fn convert(doc: &Document, buffers: &[buffer::Data], images: Vec<Image>, name: S
                 // defeat obvhs's PLOC builder, which breaks ties towards the farthest
                 // neighbour: n equal boxes take O(n^2) time and an n-deep tree.)
                 let bits = world.to_cols_array().map(f64::to_bits);
-                if !seen.insert((geometry[mesh.index()][prim.index()], bits)) {
+                let weight_bits: Vec<u32> = node.weights().unwrap_or_default().iter().map(|w| w.to_bits()).collect();
+                if !seen.insert((geometry[mesh.index()][prim.index()], bits, weight_bits)) {
                     coincident += 1;
                     continue;
                 }
                 let normal_mapped = prim.material().normal_texture().is_some();
-                if let Some((m, p)) =
-                    convert_primitive(&prim, buffers, world, default_material, normal_mapped, &mut warnings)?
-                {
+                let weights = node.weights().or(mesh.weights()).unwrap_or_default();
+                if prim.morph_targets().len() > 0 {
+                    warnings
+                        .add("morph targets are applied at the node's or mesh's weights (animation is not supported)");
+                }
+                if node.skin().is_some() {
+                    warnings.add("skinned meshes are shown in their bind pose, placed by their node (skins and animation are not supported)");
+                }
+                let converted =
+                    convert_primitive(&prim, buffers, world, default_material, normal_mapped, weights, &mut warnings)?;
+                if let Some((m, p)) = converted {
                     placed.push((MeshDesc { name: mesh.name().unwrap_or("mesh").into(), ..m }, p));
                 }
             }
@@ -947,6 +970,7 @@ fn convert_primitive(
     world: DMat4,
     default_material: u32,
     normal_mapped: bool,
+    weights: &[f32],
     warnings: &mut Warnings,
 ) -> Result<Option<(MeshDesc, Vec<DVec3>)>, String> {
     let mode = prim.mode();
@@ -963,19 +987,21 @@ fn convert_primitive(
         warnings.add("a primitive without POSITION was skipped");
         return Ok(None);
     };
-    let positions = attributes::read::<3>(&position_accessor, get).ok_or_else(|| unreadable(&position_accessor))?;
+    let mut positions = attributes::read::<3>(&position_accessor, get).ok_or_else(|| unreadable(&position_accessor))?;
+    attributes::morph(&mut positions, prim.morph_targets().map(|t| t.positions()), weights, get)?;
     let positions: Vec<DVec3> =
         positions.into_iter().map(|p| world.transform_point3(Vec3::from(p).as_dvec3())).collect();
     let n = positions.len();
     let normal_matrix = DMat3::from_mat4(world).inverse().transpose();
     let normals = match read(Semantic::Normals) {
-        Some(a) => Some(
-            attributes::read::<3>(&a, get)
-                .ok_or_else(|| unreadable(&a))?
+        Some(a) => Some({
+            let mut normals = attributes::read::<3>(&a, get).ok_or_else(|| unreadable(&a))?;
+            attributes::morph(&mut normals, prim.morph_targets().map(|t| t.normals()), weights, get)?;
+            normals
                 .into_iter()
                 .map(|v| (normal_matrix * Vec3::from(v).as_dvec3()).normalize_or_zero().as_vec3())
-                .collect::<Vec<_>>(),
-        ),
+                .collect::<Vec<_>>()
+        }),
         None => None,
     };
     let uv = |set: u32| -> Result<Option<Vec<Vec2>>, String> {
@@ -989,16 +1015,18 @@ fn convert_primitive(
     let linear = DMat3::from_mat4(world);
     let handedness = world.determinant().signum() as f32;
     let tangents = match read(Semantic::Tangents).filter(|_| normal_mapped) {
-        Some(a) => Some(
-            attributes::read::<4>(&a, get)
-                .ok_or_else(|| unreadable(&a))?
-                .into_iter()
-                .map(|v| {
-                    let xyz = (linear * Vec3::new(v[0], v[1], v[2]).as_dvec3()).normalize_or_zero().as_vec3();
-                    xyz.extend(v[3] * handedness)
+        Some(a) => Some({
+            let tangents = attributes::read::<4>(&a, get).ok_or_else(|| unreadable(&a))?;
+            let mut xyz: Vec<[f32; 3]> = tangents.iter().map(|t| [t[0], t[1], t[2]]).collect();
+            attributes::morph(&mut xyz, prim.morph_targets().map(|t| t.tangents()), weights, get)?;
+            xyz.into_iter()
+                .zip(tangents)
+                .map(|(v, t)| {
+                    let xyz = (linear * Vec3::from(v).as_dvec3()).normalize_or_zero().as_vec3();
+                    xyz.extend(t[3] * handedness)
                 })
-                .collect::<Vec<_>>(),
-        ),
+                .collect::<Vec<_>>()
+        }),
         None => None,
     };
     let raw: Vec<u32> = match reader.read_indices() {
