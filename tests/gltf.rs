@@ -292,15 +292,12 @@ fn required_extensions_are_decided_by_lucents_own_list() {
     };
     let err = load("unquantized.gltf", json!({})).unwrap_err();
     assert!(err.contains("accessor 0 is Vec3 of I8, which POSITION cannot be"), "{err}");
-    let draco = json!({
-        "extensionsUsed": ["KHR_mesh_quantization", "KHR_draco_mesh_compression"],
-        "extensionsRequired": ["KHR_mesh_quantization", "KHR_draco_mesh_compression"]
+    let basisu = json!({
+        "extensionsUsed": ["KHR_mesh_quantization", "KHR_texture_basisu"],
+        "extensionsRequired": ["KHR_mesh_quantization", "KHR_texture_basisu"]
     });
-    let err = load("draco.gltf", draco).unwrap_err();
-    assert!(
-        err.ends_with("requires the glTF extension KHR_draco_mesh_compression, which Lucent does not support"),
-        "{err}"
-    );
+    let err = load("basisu.gltf", basisu).unwrap_err();
+    assert!(err.ends_with("requires the glTF extension KHR_texture_basisu, which Lucent does not support"), "{err}");
     // gltf-json's own list leaves out extensions Lucent renders, such as KHR_materials_volume.
     let volume = json!({
         "extensionsUsed": ["KHR_mesh_quantization", "KHR_materials_volume"],

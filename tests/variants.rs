@@ -24,12 +24,15 @@ fn load(rel: &str) -> SceneDesc {
 /// plain integers or, under meshopt's octahedral filter at 4 bytes, 8-bit codes (127 steps per
 /// unit) in two components, which the octahedral map stretches by at most 3 (sqrt 3 for the
 /// lift onto the octahedron, sqrt 3 for the projection onto the sphere), with rounding of at
-/// most half a step in each: 3 x sqrt(2) / 2 / 127.
+/// most half a step in each: 3 x sqrt(2) / 2 / 127. Draco quantizes positions and texture
+/// coordinates at the same depths over each attribute's range.
 struct Steps {
     normal: f32,
 }
 
 const QUANTIZE: Steps = Steps { normal: 2.0 / 1023.0 };
+/// Draco stores normals as 10-bit octahedral codes (2 / 1023 per step over [-1, 1]).
+const DRACO: Steps = Steps { normal: 3.0 * std::f32::consts::FRAC_1_SQRT_2 * 2.0 / 1023.0 };
 const MESHOPT: Steps = Steps { normal: 3.0 * std::f32::consts::FRAC_1_SQRT_2 / 127.0 };
 
 fn step(extent: f32, bits: i32) -> f32 {
@@ -114,7 +117,12 @@ fn assert_same_meshes(p: &SceneDesc, q: &SceneDesc, steps: &Steps, label: &str) 
 #[test]
 fn re_encoded_cornell_glass_has_its_sources_triangles_within_a_step() {
     let p = load("cornell-box-glass.gltf");
-    for (file, steps) in [("quantized/cornell-box-glass.gltf", QUANTIZE), ("meshopt/cornell-box-glass.gltf", MESHOPT)] {
+    let variants = [
+        ("quantized/cornell-box-glass.gltf", QUANTIZE),
+        ("meshopt/cornell-box-glass.gltf", MESHOPT),
+        ("draco/cornell-box-glass.gltf", DRACO),
+    ];
+    for (file, steps) in variants {
         let q = load(file);
         assert_same_meshes(&p, &q, &steps, file);
         let names = |d: &SceneDesc| d.materials.iter().map(|m| m.name.clone()).collect::<Vec<_>>();
@@ -130,10 +138,13 @@ fn re_encoded_water_bottles_have_their_sources_attributes_within_a_step_and_rend
     let plain = Arc::new(Scene::build(load("WaterBottle/glTF/WaterBottle.gltf")).with_environment(Some(sky())));
     let camera = plain.default_camera(1.0);
     let reference = common::render(&plain, camera, settings(1), None);
-    let z_max = common::sidak_z(1e-3, 2 * 36 * 3);
-    for (seed, (file, steps)) in
-        [("quantized/WaterBottle.glb", QUANTIZE), ("meshopt/WaterBottle.glb", MESHOPT)].into_iter().enumerate()
-    {
+    let variants = [
+        ("quantized/WaterBottle.glb", QUANTIZE),
+        ("meshopt/WaterBottle.glb", MESHOPT),
+        ("draco/WaterBottle.glb", DRACO),
+    ];
+    let z_max = common::sidak_z(1e-3, variants.len() * 36 * 3);
+    for (seed, (file, steps)) in variants.into_iter().enumerate() {
         let q = load(file);
         assert!(q.meshes[0].tangents.is_some() && q.meshes[0].uvs.is_some(), "{file}: integer tangents and uvs");
         assert_same_meshes(&p, &q, &steps, file);
@@ -257,5 +268,81 @@ fn bad_meshopt_streams_are_refused_in_one_line() {
     for (name, bytes, want) in cases {
         let err = gltf::load(&temp(name, &bytes)).err().unwrap_or_else(|| panic!("{name}: loaded")).to_string();
         assert!(err.contains(want) && !err.contains('\n'), "{name}: {err}");
+    }
+}
+
+/// The Draco glass box with `edit` applied to its JSON and `garble` to its buffer, written
+/// beside a copy of its buffer.
+fn draco_box(name: &str, edit: impl Fn(&mut Value), garble: impl Fn(&mut Vec<u8>, &Value)) -> std::path::PathBuf {
+    let dir = common::asset("draco");
+    let mut doc: Value = serde_json::from_slice(&std::fs::read(dir.join("cornell-box-glass.gltf")).unwrap()).unwrap();
+    let mut bin = std::fs::read(dir.join("cornell-box-glass.bin")).unwrap();
+    edit(&mut doc);
+    garble(&mut bin, &doc);
+    let out = temp(&format!("{name}.gltf"), &serde_json::to_vec(&doc).unwrap());
+    std::fs::write(out.with_file_name("cornell-box-glass.bin"), &bin).unwrap();
+    out
+}
+
+#[test]
+fn bad_draco_streams_are_refused_in_one_line() {
+    let ext = |d: &mut Value| -> Value {
+        d["meshes"][0]["primitives"][0]["extensions"]["KHR_draco_mesh_compression"].clone()
+    };
+    let cases: Vec<(&str, std::path::PathBuf, &str)> = vec![
+        (
+            "short",
+            draco_box(
+                "short",
+                |d| {
+                    let view = ext(d)["bufferView"].as_u64().unwrap() as usize;
+                    d["bufferViews"][view]["byteLength"] = json!(12);
+                },
+                |_, _| (),
+            ),
+            "the Draco stream does not decode",
+        ),
+        (
+            "uid",
+            draco_box(
+                "uid",
+                |d| {
+                    d["meshes"][0]["primitives"][0]["extensions"]["KHR_draco_mesh_compression"]["attributes"]["POSITION"] =
+                        json!(99)
+                },
+                |_, _| (),
+            ),
+            "attribute POSITION: no Draco attribute 99",
+        ),
+    ];
+    for (name, path, want) in cases {
+        let err = gltf::load(&path).err().unwrap_or_else(|| panic!("{name}: loaded")).to_string();
+        assert!(err.contains(want) && !err.contains('\n'), "{name}: {err}");
+    }
+    // Garbled streams may still decode (to other geometry); each sphere's, garbled eight
+    // ways, must load or be refused in one line, and never panic.
+    for mesh in [6, 7] {
+        for seed in 0..8u8 {
+            let path = draco_box(
+                &format!("garbled-{mesh}-{seed}"),
+                |_| (),
+                |bin, d| {
+                    let view =
+                        d["meshes"][mesh]["primitives"][0]["extensions"]["KHR_draco_mesh_compression"]["bufferView"]
+                            .as_u64()
+                            .unwrap();
+                    let view = &d["bufferViews"][view as usize];
+                    let start = view["byteOffset"].as_u64().unwrap_or(0) as usize;
+                    let end = start + view["byteLength"].as_u64().unwrap() as usize;
+                    let span = &mut bin[start + 8 * usize::from(seed)..end];
+                    span.iter_mut()
+                        .enumerate()
+                        .for_each(|(i, b)| *b ^= (i as u8).wrapping_mul(97).wrapping_add(seed) | 1);
+                },
+            );
+            if let Err(e) = gltf::load(&path) {
+                assert!(!e.to_string().contains('\n'), "garbled {mesh} {seed}: {e}");
+            }
+        }
     }
 }

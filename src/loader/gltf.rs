@@ -11,7 +11,7 @@
 
 use super::limits::{self, Attributes, Limits, PrimitiveShape, format_bytes};
 use super::resources::{self, Encoded, Tally};
-use super::{LoadError, Refusal, attributes, graph, meshopt};
+use super::{LoadError, Refusal, attributes, draco, graph, meshopt};
 use crate::medium::phase::MAX_G;
 use crate::scene::{
     MeshDesc, SceneDesc,
@@ -44,6 +44,7 @@ const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_xmp",
     attributes::QUANTIZATION,
     meshopt::EXTENSION,
+    draco::EXTENSION,
     WEBP,
 ];
 
@@ -147,22 +148,28 @@ fn read(bytes: &[u8], base: Option<&Path>, limits: &Limits) -> Result<Read, Refu
     }
     let gltf::Gltf { document, blob } = parse(bytes)?;
     check_position_accessors(&document)?;
-    let document = Document::from_json(required_checked(document.into_json())?).map_err(|e| describe(&e))?;
+    let json = required_checked(document.into_json())?;
+    // Buffers are read before validation: compressed meshes and views (EXT_meshopt_compression,
+    // KHR_draco_mesh_compression) are decoded into plain views first, which is what the
+    // accessors of a Draco primitive, without a bufferView of their own, need to validate.
+    // Reading buffers touches only the buffers' own entries.
+    tally.used = tally.used.saturating_add(blob.as_ref().map_or(0, |b| b.len() as u64));
+    let unchecked = Document::from_json_without_validation(json);
+    let mut buffers = resources::buffers(&unchecked, base, blob, &mut tally)?;
+    let mut json = unchecked.into_json();
+    if meshopt::used(&json) {
+        meshopt::decode(&mut json, &mut buffers, &mut tally)?;
+    }
+    if draco::used(&json) {
+        draco::decode(&mut json, &mut buffers, &mut tally)?;
+    }
+    let document = Document::from_json(json).map_err(|e| describe(&e))?;
     check_image_sources(&document)?;
     let roots: Vec<usize> = document
         .default_scene()
         .or_else(|| document.scenes().next())
         .map_or_else(Vec::new, |s| s.nodes().map(|n| n.index()).collect());
     let placements = graph::placements(&document, &roots)?;
-    tally.used = tally.used.saturating_add(blob.as_ref().map_or(0, |b| b.len() as u64));
-    let mut buffers = resources::buffers(&document, base, blob, &mut tally)?;
-    let document = if meshopt::used(document.as_json()) {
-        let mut json = document.into_json();
-        meshopt::decode(&mut json, &mut buffers, &mut tally)?;
-        Document::from_json(json).map_err(|e| describe(&e))?
-    } else {
-        document
-    };
     check_buffer_views(&document, &buffers)?;
     let placed = check_primitives(&document, &buffers, &placements)?;
     let estimate = Estimate::new(&document, tally.used, bytes.len() as u64, &placed, &placements);

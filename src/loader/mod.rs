@@ -2,6 +2,7 @@
 
 mod attributes;
 pub mod builtin;
+mod draco;
 pub mod gltf;
 mod graph;
 pub mod limits;
