@@ -292,12 +292,15 @@ fn required_extensions_are_decided_by_lucents_own_list() {
     };
     let err = load("unquantized.gltf", json!({})).unwrap_err();
     assert!(err.contains("accessor 0 is Vec3 of I8, which POSITION cannot be"), "{err}");
-    let basisu = json!({
+    let anisotropy = json!({
         "extensionsUsed": ["KHR_mesh_quantization", "KHR_texture_basisu"],
-        "extensionsRequired": ["KHR_mesh_quantization", "KHR_texture_basisu"]
+        "extensionsRequired": ["KHR_mesh_quantization", "KHR_materials_anisotropy"]
     });
-    let err = load("basisu.gltf", basisu).unwrap_err();
-    assert!(err.ends_with("requires the glTF extension KHR_texture_basisu, which Lucent does not support"), "{err}");
+    let err = load("anisotropy.gltf", anisotropy).unwrap_err();
+    assert!(
+        err.ends_with("requires the glTF extension KHR_materials_anisotropy, which Lucent does not support"),
+        "{err}"
+    );
     // gltf-json's own list leaves out extensions Lucent renders, such as KHR_materials_volume.
     let volume = json!({
         "extensionsUsed": ["KHR_mesh_quantization", "KHR_materials_volume"],
@@ -327,14 +330,14 @@ fn image_uri(texels: &[u8], format: image::ImageFormat) -> String {
 fn webp_textures_are_shown_and_images_no_texture_shows_are_not_read() {
     let texels: Vec<u8> = (0..24u8).map(|i| i.wrapping_mul(37)).collect();
     let mut doc: Value = serde_json::from_slice(&one_triangle(json!({"mesh": 0}), [0, 1, 2])).unwrap();
-    doc["extensionsUsed"] = json!(["EXT_texture_webp", "KHR_texture_basisu"]);
+    doc["extensionsUsed"] = json!(["EXT_texture_webp"]);
     doc["images"] = json!([
         {"uri": image_uri(&[255; 24], image::ImageFormat::Png)},
         {"uri": image_uri(&texels, image::ImageFormat::WebP)},
         {"uri": "missing.ktx2"}
     ]);
     doc["textures"] = json!([
-        {"source": 0, "extensions": {"EXT_texture_webp": {"source": 1}, "KHR_texture_basisu": {"source": 2}}},
+        {"source": 0, "extensions": {"EXT_texture_webp": {"source": 1}}},
         {"extensions": {"EXT_texture_webp": {"source": 1}}}
     ]);
     doc["materials"] = json!([{"pbrMetallicRoughness": {"baseColorTexture": {"index": 1}}}]);
@@ -363,4 +366,36 @@ fn morph_targets_apply_at_the_nodes_or_meshs_weights_with_a_warning() {
     };
     assert_eq!(morphed(json!({"mesh": 0})), 1.5, "the mesh's default weight");
     assert_eq!(morphed(json!({"mesh": 0, "weights": [1.0]})), 2.0, "the node's weights override the mesh's");
+}
+
+#[test]
+fn ktx2_textures_transcode_as_basis_universals_own_transcoder_does() {
+    let png = |name: &str| -> Vec<[u8; 4]> {
+        let image = image::open(common::asset(&format!("ktx2/{name}"))).unwrap().into_rgba8();
+        image.pixels().map(|p| p.0).collect()
+    };
+    let ktx2 = |bytes: &[u8], name: &str| {
+        let uri = format!("data:image/ktx2;base64,{}", base64::engine::general_purpose::STANDARD.encode(bytes));
+        let mut doc: Value = serde_json::from_slice(&one_triangle(json!({"mesh": 0}), [0, 1, 2])).unwrap();
+        doc["extensionsUsed"] = json!(["KHR_texture_basisu"]);
+        doc["extensionsRequired"] = json!(["KHR_texture_basisu"]);
+        doc["images"] = json!([{"uri": uri}]);
+        doc["textures"] = json!([{"extensions": {"KHR_texture_basisu": {"source": 0}}}]);
+        gltf::load(&temp(&format!("{name}.gltf"), &serde_json::to_vec(&doc).unwrap()))
+    };
+    let bytes = std::fs::read(common::asset("ktx2/uastc.ktx2")).unwrap();
+    for (name, cut) in [("truncated", &bytes[..bytes.len() / 2]), ("header", &bytes[..40])] {
+        let err = ktx2(cut, name).err().unwrap_or_else(|| panic!("{name}: loaded")).to_string();
+        assert!(err.contains("image 0 (a data URI): ") && err.contains("KTX2") && !err.contains('\n'), "{name}: {err}");
+    }
+    for mode in ["uastc", "etc1s"] {
+        let bytes = std::fs::read(common::asset(&format!("ktx2/{mode}.ktx2"))).unwrap();
+        let desc = ktx2(&bytes, mode).unwrap_or_else(|e| panic!("{mode}: {e}"));
+        let image = &desc.images[desc.textures[0].image as usize];
+        assert_eq!((image.width, image.height), (64, 64), "{mode}");
+        assert!(
+            image.texels == png(&format!("{mode}.reference.png")),
+            "{mode}: as the reference transcoder decodes it"
+        );
+    }
 }

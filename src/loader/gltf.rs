@@ -46,10 +46,14 @@ const SUPPORTED_EXTENSIONS: &[&str] = &[
     meshopt::EXTENSION,
     draco::EXTENSION,
     WEBP,
+    BASISU,
 ];
 
 /// WebP textures, decoded by the image crate.
 const WEBP: &str = "EXT_texture_webp";
+
+/// KTX2 textures in Basis Universal, transcoded by the `basisu` crate.
+const BASISU: &str = "KHR_texture_basisu";
 
 /// Loads a .gltf or .glb file within the machine's default `Limits`.
 pub fn load(path: &Path) -> Result<SceneDesc, LoadError> {
@@ -179,15 +183,17 @@ fn read(bytes: &[u8], base: Option<&Path>, limits: &Limits) -> Result<Read, Refu
 /// Refuses a file that requires an extension Lucent does not support, naming it; the
 /// document is returned with its extensionsRequired emptied, so that gltf-json's validation
 /// (which knows only its own short list) checks the rest, and with each texture showing its
-/// EXT_texture_webp image where it has one (its `source` is then a fallback, or absent).
+/// KHR_texture_basisu image, or else its EXT_texture_webp image, where it has one (as those
+/// extensions ask; the texture's `source` is then a fallback, or absent).
 fn required_checked(mut json: gltf::json::Root) -> Result<gltf::json::Root, String> {
     if let Some(ext) = json.extensions_required.iter().find(|e| !SUPPORTED_EXTENSIONS.contains(&e.as_str())) {
         return Err(format!("the file requires the glTF extension {ext}, which Lucent does not support"));
     }
     json.extensions_required.clear();
     for texture in &mut json.textures {
-        let webp = texture.extensions.as_ref().and_then(|e| e.others.get(WEBP)).and_then(|w| w["source"].as_u64());
-        if let Some(source) = webp.and_then(|s| u32::try_from(s).ok()) {
+        let others = texture.extensions.as_ref().map(|e| &e.others);
+        let source = |ext: &str| others.and_then(|o| o.get(ext)).and_then(|w| w["source"].as_u64());
+        if let Some(source) = source(BASISU).or(source(WEBP)).and_then(|s| u32::try_from(s).ok()) {
             texture.source = gltf::json::Index::new(source);
         }
     }

@@ -119,7 +119,8 @@ pub struct Encoded<'a> {
     /// "image 2 (tex.png)", for messages.
     pub name: String,
     bytes: Cow<'a, [u8]>,
-    format: ImageFormat,
+    /// None: a KTX2 (Basis Universal) texture.
+    format: Option<ImageFormat>,
     /// Width in texels.
     pub width: u32,
     /// Height in texels.
@@ -138,7 +139,7 @@ impl Encoded<'_> {
     }
 }
 
-/// Reads the encoded bytes (counted in `tally`) and the PNG, JPEG or WebP header of every
+/// Reads the encoded bytes (counted in `tally`) and the PNG, JPEG, WebP or KTX2 header of every
 /// image a texture shows, without decoding: the header gives the size the decoder will
 /// allocate. None for an image no texture shows (a KTX2 beside its fallback, say): unread.
 pub fn image_headers<'a>(
@@ -168,16 +169,26 @@ pub fn image_headers<'a>(
             }
         };
         let header = |e: &dyn std::fmt::Display| Refusal::Invalid(format!("{name}: {e}"));
+        if bytes.starts_with(KTX2_MAGIC) {
+            let texture =
+                basisu::Transcoder::new(&bytes).map_err(|e| header(&format!("not a Basis Universal KTX2 ({e:?})")))?;
+            let (width, height) = texture.base_dimensions();
+            let decoded = u64::from(width) * u64::from(height) * 4;
+            drop(texture);
+            out.push(Some(Encoded { name, bytes, format: None, width, height, decoded }));
+            continue;
+        }
         let mut reader = ImageReader::new(Cursor::new(&*bytes)).with_guessed_format().map_err(|e| header(&e))?;
         let format = match reader.format() {
             Some(f @ (ImageFormat::Png | ImageFormat::Jpeg | ImageFormat::WebP)) => f,
-            _ => return Err(header(&"not a PNG, JPEG (glTF 2.0, 3.9.3) or WebP (EXT_texture_webp) image")),
+            _ => return Err(header(&"not a PNG, JPEG (glTF 2.0, 3.9.3), WebP or KTX2 image")),
         };
         reader.no_limits();
         let decoder = reader.into_decoder().map_err(|e| header(&e.to_string().replace('\n', " ")))?;
         let (width, height) = decoder.dimensions();
         let decoded = decoder.total_bytes();
         drop(decoder);
+        let format = Some(format);
         out.push(Some(Encoded { name, bytes, format, width, height, decoded }));
     }
     Ok(out)
@@ -185,9 +196,24 @@ pub fn image_headers<'a>(
 
 /// Decodes an image whose header was read, allowing the decoder `max_alloc` bytes.
 pub fn decode(image: Encoded, max_alloc: u64) -> Result<DynamicImage, Refusal> {
-    let mut reader = ImageReader::with_format(Cursor::new(&*image.bytes), image.format);
+    let Some(format) = image.format else { return transcode(&image) };
+    let mut reader = ImageReader::with_format(Cursor::new(&*image.bytes), format);
     let mut limits = image::Limits::no_limits();
     limits.max_alloc = Some(max_alloc);
     reader.limits(limits);
     reader.decode().map_err(|e| Refusal::Invalid(format!("{}: {}", image.name, e.to_string().replace('\n', " "))))
+}
+
+/// The identifier that opens every KTX2 file (KTX 2.0 specification, 3.1).
+const KTX2_MAGIC: &[u8] = b"\xabKTX 20\xbb\r\n\x1a\n";
+
+/// A KHR_texture_basisu image's base level transcoded to RGBA8 by the pure-Rust Basis
+/// Universal transcoder (the `basisu` crate), its size already counted from the header.
+fn transcode(image: &Encoded) -> Result<DynamicImage, Refusal> {
+    let fail = |e: basisu::Error| Refusal::Invalid(format!("{}: the KTX2 does not transcode ({e:?})", image.name));
+    let texture = basisu::Transcoder::new(&image.bytes).map_err(fail)?;
+    let texels = texture.transcode(0, basisu::TargetFormat::Rgba32, basisu::DecodeFlags::NONE).map_err(fail)?;
+    image::RgbaImage::from_raw(image.width, image.height, texels)
+        .map(DynamicImage::ImageRgba8)
+        .ok_or_else(|| Refusal::Invalid(format!("{}: the KTX2 transcodes to the wrong size", image.name)))
 }
