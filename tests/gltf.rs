@@ -399,3 +399,74 @@ fn ktx2_textures_transcode_as_basis_universals_own_transcoder_does() {
         );
     }
 }
+
+/// The one-triangle file under a node with EXT_mesh_gpu_instancing: translations (0, 0, 0),
+/// (2, 0, 0) and (0, 0, -3) as f32, and rotations as normalized i16, the third half a turn
+/// about z; `edit` changes the document.
+fn instanced_triangle(edit: impl Fn(&mut Value)) -> Vec<u8> {
+    let mut doc: Value = serde_json::from_slice(&one_triangle(json!({"mesh": 0}), [0, 1, 2])).unwrap();
+    let mut bytes = Vec::new();
+    for t in [[0.0f32, 0.0, 0.0], [2.0, 0.0, 0.0], [0.0, 0.0, -3.0]] {
+        t.iter().for_each(|c| bytes.extend_from_slice(&c.to_le_bytes()));
+    }
+    for q in [[0i16, 0, 0, i16::MAX], [0, 0, 0, i16::MAX], [0, 0, i16::MAX, 0]] {
+        q.iter().for_each(|c| bytes.extend_from_slice(&c.to_le_bytes()));
+    }
+    let uri =
+        format!("data:application/octet-stream;base64,{}", base64::engine::general_purpose::STANDARD.encode(&bytes));
+    doc["buffers"].as_array_mut().unwrap().push(json!({"byteLength": bytes.len(), "uri": uri}));
+    doc["bufferViews"].as_array_mut().unwrap().extend([
+        json!({"buffer": 1, "byteOffset": 0, "byteLength": 36}),
+        json!({"buffer": 1, "byteOffset": 36, "byteLength": 24}),
+    ]);
+    doc["accessors"].as_array_mut().unwrap().extend([
+        json!({"bufferView": 3, "componentType": 5126, "count": 3, "type": "VEC3"}),
+        json!({"bufferView": 4, "componentType": 5122, "normalized": true, "count": 3, "type": "VEC4"}),
+    ]);
+    doc["extensionsUsed"] = json!(["EXT_mesh_gpu_instancing"]);
+    doc["extensionsRequired"] = json!(["EXT_mesh_gpu_instancing"]);
+    doc["nodes"][0]["extensions"] =
+        json!({"EXT_mesh_gpu_instancing": {"attributes": {"TRANSLATION": 3, "ROTATION": 4}}});
+    edit(&mut doc);
+    serde_json::to_vec(&doc).unwrap()
+}
+
+#[test]
+fn gpu_instancing_places_the_mesh_once_per_instance() {
+    let desc = gltf::load(&temp("instanced.gltf", &instanced_triangle(|_| ()))).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(triangles(&desc), 3, "one triangle per instance");
+    let mut got: Vec<Vec3> =
+        desc.meshes.iter().flat_map(|m| m.indices.iter().map(|&i| m.positions[i as usize])).collect();
+    // The triangle (0,0,0), (1,0,0), (0,1,0) at each instance, the third turned half about z.
+    let corners = [Vec3::ZERO, Vec3::X, Vec3::Y];
+    let mut want: Vec<Vec3> = corners
+        .iter()
+        .copied()
+        .chain(corners.iter().map(|&c| c + Vec3::new(2.0, 0.0, 0.0)))
+        .chain(corners.iter().map(|&c| Vec3::new(-c.x, -c.y, c.z) + Vec3::new(0.0, 0.0, -3.0)))
+        .collect();
+    let centre = |v: &[Vec3]| {
+        let (lo, hi) = v.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &p| (lo.min(p), hi.max(p)));
+        0.5 * (lo + hi)
+    };
+    let (cg, cw) = (centre(&got), centre(&want));
+    let key = |v: &Vec3| {
+        (v.x * 1e4).round() as i64 * 1_000_000_000 + (v.y * 1e4).round() as i64 * 100_000 + (v.z * 1e4).round() as i64
+    };
+    got.iter_mut().for_each(|v| *v -= cg);
+    want.iter_mut().for_each(|v| *v -= cw);
+    got.sort_by_key(key);
+    want.sort_by_key(key);
+    for (g, w) in got.iter().zip(&want) {
+        assert!((*g - *w).length() < 1e-6, "{g} against {w}");
+    }
+    let bad = |edit: &dyn Fn(&mut Value), want: &str| {
+        let err = gltf::load(&temp("bad-instances.gltf", &instanced_triangle(edit))).err().unwrap().to_string();
+        assert!(err.contains(want) && !err.contains('\n'), "{err}");
+    };
+    bad(
+        &|d| d["accessors"][4]["componentType"] = json!(5121),
+        "accessor 4 is Vec4 of U8, which an instance rotation cannot be",
+    );
+    bad(&|d| d["accessors"][3]["count"] = json!(2), "nodes[0]: instance attributes have different counts");
+}

@@ -11,7 +11,7 @@
 
 use super::limits::{self, Attributes, Limits, PrimitiveShape, format_bytes};
 use super::resources::{self, Encoded, Tally};
-use super::{LoadError, Refusal, attributes, draco, graph, meshopt};
+use super::{LoadError, Refusal, attributes, draco, graph, instancing, meshopt};
 use crate::medium::phase::MAX_G;
 use crate::scene::{
     MeshDesc, SceneDesc,
@@ -45,6 +45,7 @@ const SUPPORTED_EXTENSIONS: &[&str] = &[
     attributes::QUANTIZATION,
     meshopt::EXTENSION,
     draco::EXTENSION,
+    instancing::EXTENSION,
     WEBP,
     BASISU,
 ];
@@ -174,8 +175,18 @@ fn read(bytes: &[u8], base: Option<&Path>, limits: &Limits) -> Result<Read, Refu
         .or_else(|| document.scenes().next())
         .map_or_else(Vec::new, |s| s.nodes().map(|n| n.index()).collect());
     let placements = graph::placements(&document, &roots)?;
+    let quantized = document.extensions_used().any(|e| e == attributes::QUANTIZATION);
+    let instances = instancing::counts(&document, quantized, |a| check_accessor(a, &buffers))?;
+    let mesh_placements: Vec<u64> = placements.iter().zip(&instances).map(|(p, i)| p.saturating_mul(*i)).collect();
+    let total = mesh_placements.iter().fold(0u64, |a, &p| a.saturating_add(p));
+    if total > graph::MAX_NODE_PLACEMENTS {
+        return Err(Refusal::TooLarge(format!(
+            "the nodes and their instances (EXT_mesh_gpu_instancing) place meshes {total} times, over the limit of {}",
+            graph::MAX_NODE_PLACEMENTS
+        )));
+    }
     check_buffer_views(&document, &buffers)?;
-    let placed = check_primitives(&document, &buffers, &placements)?;
+    let placed = check_primitives(&document, &buffers, &mesh_placements)?;
     let estimate = Estimate::new(&document, tally.used, bytes.len() as u64, &placed, &placements);
     Ok(Read { document, buffers, tally, estimate })
 }
@@ -286,7 +297,7 @@ struct Placed {
 
 /// Checks the accessors of every primitive that the scene places (inside their buffers,
 /// of types the spec allows, one count for all vertex attributes) and says what each
-/// will take; `placements` is how often each node is placed.
+/// will take; `placements` is how often each node's mesh is placed.
 fn check_primitives(doc: &Document, buffers: &[buffer::Data], placements: &[u64]) -> Result<Vec<Placed>, String> {
     let mut copies = vec![0u64; doc.meshes().len()];
     for node in doc.nodes() {
@@ -561,30 +572,44 @@ fn convert(doc: &Document, buffers: &[buffer::Data], images: Vec<Image>, name: S
     while let Some((node, parent)) = stack.pop() {
         let world = parent * DMat4::from_cols_array_2d(&node.transform().matrix().map(|c| c.map(f64::from)));
         if let Some(mesh) = node.mesh() {
-            for prim in mesh.primitives() {
-                // A copy of geometry already placed with the same transform only doubles
-                // triangles exactly: it is placed once. (Many coincident triangles also
-                // defeat obvhs's PLOC builder, which breaks ties towards the farthest
-                // neighbour: n equal boxes take O(n^2) time and an n-deep tree.)
-                let bits = world.to_cols_array().map(f64::to_bits);
-                let weight_bits: Vec<u32> = node.weights().unwrap_or_default().iter().map(|w| w.to_bits()).collect();
-                if !seen.insert((geometry[mesh.index()][prim.index()], bits, weight_bits)) {
-                    coincident += 1;
-                    continue;
-                }
-                let normal_mapped = prim.material().normal_texture().is_some();
-                let weights = node.weights().or(mesh.weights()).unwrap_or_default();
-                if prim.morph_targets().len() > 0 {
-                    warnings
-                        .add("morph targets are applied at the node's or mesh's weights (animation is not supported)");
-                }
-                if node.skin().is_some() {
-                    warnings.add("skinned meshes are shown in their bind pose, placed by their node (skins and animation are not supported)");
-                }
-                let converted =
-                    convert_primitive(&prim, buffers, world, default_material, normal_mapped, weights, &mut warnings)?;
-                if let Some((m, p)) = converted {
-                    placed.push((MeshDesc { name: mesh.name().unwrap_or("mesh").into(), ..m }, p));
+            // EXT_mesh_gpu_instancing places the mesh once per instance, under the node.
+            let instances = instancing::transforms(doc, &node, buffers)?;
+            let worlds = instances.map_or_else(|| vec![world], |t| t.into_iter().map(|t| world * t).collect());
+            for world in worlds {
+                for prim in mesh.primitives() {
+                    // A copy of geometry already placed with the same transform only doubles
+                    // triangles exactly: it is placed once. (Many coincident triangles also
+                    // defeat obvhs's PLOC builder, which breaks ties towards the farthest
+                    // neighbour: n equal boxes take O(n^2) time and an n-deep tree.)
+                    let bits = world.to_cols_array().map(f64::to_bits);
+                    let weight_bits: Vec<u32> =
+                        node.weights().unwrap_or_default().iter().map(|w| w.to_bits()).collect();
+                    if !seen.insert((geometry[mesh.index()][prim.index()], bits, weight_bits)) {
+                        coincident += 1;
+                        continue;
+                    }
+                    let normal_mapped = prim.material().normal_texture().is_some();
+                    let weights = node.weights().or(mesh.weights()).unwrap_or_default();
+                    if prim.morph_targets().len() > 0 {
+                        warnings.add(
+                            "morph targets are applied at the node's or mesh's weights (animation is not supported)",
+                        );
+                    }
+                    if node.skin().is_some() {
+                        warnings.add("skinned meshes are shown in their bind pose, placed by their node (skins and animation are not supported)");
+                    }
+                    let converted = convert_primitive(
+                        &prim,
+                        buffers,
+                        world,
+                        default_material,
+                        normal_mapped,
+                        weights,
+                        &mut warnings,
+                    )?;
+                    if let Some((m, p)) = converted {
+                        placed.push((MeshDesc { name: mesh.name().unwrap_or("mesh").into(), ..m }, p));
+                    }
                 }
             }
         }

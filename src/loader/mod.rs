@@ -5,6 +5,7 @@ pub mod builtin;
 mod draco;
 pub mod gltf;
 mod graph;
+mod instancing;
 pub mod limits;
 pub mod media;
 mod meshopt;
