@@ -34,6 +34,8 @@ pub struct OpenOptions {
     /// The memory loading and building may take (default: half the machine's); a file that
     /// would need more is refused before it is allocated ("scene too large: ...").
     pub limits: Limits,
+    /// The KHR_materials_variants variant to give the meshes' materials (None: the defaults).
+    pub variant: Option<String>,
 }
 
 /// Opens the glTF file at `path` (None: the built-in Cornell box) lit by
@@ -46,10 +48,13 @@ pub fn open(path: Option<&Path>, options: &OpenOptions, progress: &mut dyn FnMut
         Some(Environment::load(options.environment.clone())?)
     };
     progress(Stage::Reading);
-    let desc = match path {
+    let mut desc = match path {
         Some(p) => gltf::load_with_limits(p, &options.limits).map_err(|e| e.to_string())?,
         None => builtin::cornell_box(),
     };
+    if let Some(variant) = &options.variant {
+        desc.select_variant(variant)?;
+    }
     progress(Stage::Building);
     let mut scene = Scene::build(desc);
     if environment.is_none() && !options.keep_dark && !scene.has_own_light() {

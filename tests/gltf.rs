@@ -470,3 +470,38 @@ fn gpu_instancing_places_the_mesh_once_per_instance() {
     );
     bad(&|d| d["accessors"][3]["count"] = json!(2), "nodes[0]: instance attributes have different counts");
 }
+
+#[test]
+fn material_variants_switch_the_materials_they_name() {
+    let mut doc: Value = serde_json::from_slice(&one_triangle(json!({"mesh": 0}), [0, 1, 2])).unwrap();
+    doc["extensionsUsed"] = json!(["KHR_materials_variants"]);
+    doc["extensions"] =
+        json!({"KHR_materials_variants": {"variants": [{"name": "red"}, {"name": "blue"}, {"name": "plain"}]}});
+    doc["materials"] = json!([
+        {"name": "white"},
+        {"name": "red", "pbrMetallicRoughness": {"baseColorFactor": [1, 0, 0, 1]}},
+        {"name": "blue", "pbrMetallicRoughness": {"baseColorFactor": [0, 0, 1, 1]}}
+    ]);
+    let primitive = &mut doc["meshes"][0]["primitives"][0];
+    primitive["material"] = json!(0);
+    primitive["extensions"] = json!({"KHR_materials_variants": {"mappings": [
+        {"material": 1, "variants": [0]},
+        {"material": 2, "variants": [1]}
+    ]}});
+    let path = temp("variants.gltf", &serde_json::to_vec(&doc).unwrap());
+    let load = || gltf::load(&path).unwrap_or_else(|e| panic!("{e}"));
+    let desc = load();
+    assert_eq!(desc.variants, ["red", "blue", "plain"]);
+    assert_eq!(desc.meshes[0].material, 0, "the default material without a variant");
+    for (variant, material) in [("red", 1), ("blue", 2), ("plain", 0)] {
+        let mut desc = load();
+        desc.select_variant(variant).unwrap();
+        assert_eq!(desc.meshes[0].material, material, "{variant}");
+    }
+    let err = load().select_variant("green").unwrap_err();
+    assert_eq!(err, "the scene has no material variant \"green\" (its variants: red, blue, plain)");
+    let options = lucent::open::OpenOptions { variant: Some("blue".into()), ..Default::default() };
+    let scene = lucent::open::open(Some(&path), &options, &mut |_| {}).unwrap();
+    assert_eq!(scene.geometry.attrs(0).material, 2, "open() applies the variant");
+    assert_eq!(scene.variants, ["red", "blue", "plain"]);
+}

@@ -212,6 +212,9 @@ pub struct RenderOptions {
     /// Look through the file's camera number N (0-based, in the viewer's list) [default: the first].
     #[arg(long)]
     pub camera: Option<usize>,
+    /// Give every mesh its material in this KHR_materials_variants variant (by name).
+    #[arg(long)]
+    pub variant: Option<String>,
     /// Every render and display setting (see the table in the README).
     #[command(flatten)]
     pub params: ParamArgs,

@@ -101,6 +101,7 @@ pub fn run(args: &FarmSlurmArgs) -> Result<(), String> {
         &OpenOptions {
             environment: view.environment.clone(),
             keep_dark: args.options.keeps_dark(),
+            variant: args.options.variant.clone(),
             ..OpenOptions::default()
         },
     )?;
@@ -179,10 +180,13 @@ impl Scripts<'_> {
 
     /// The job array: one task per piece.
     fn render(&self) -> Result<String, String> {
-        let scene = match &self.args.scene {
+        let mut scene = match &self.args.scene {
             Some(p) => format!(" {}", absolute(p)?),
             None => String::new(),
         };
+        if let Some(v) = &self.args.options.variant {
+            scene.push_str(&format!(" --variant {}", quote(v)));
+        }
         let mut out = String::new();
         let _ = writeln!(out, "#!/bin/bash");
         let _ = writeln!(out, "# One piece of the render per task of the array (written by lucent farm slurm).");

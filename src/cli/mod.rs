@@ -60,6 +60,7 @@ pub fn launch(args: &args::ViewArgs) -> Result<Launch, String> {
         file_camera: args.options.camera,
         fixed_size: args.options.fixed_size(),
         keep_dark: args.options.keeps_dark(),
+        variant: args.options.variant.clone(),
         threads: args.options.threads,
         screenshot: args.screenshot.clone(),
         denoise: args.denoise,

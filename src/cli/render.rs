@@ -90,6 +90,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         &OpenOptions {
             environment: view.environment.clone(),
             keep_dark: args.options.keeps_dark(),
+            variant: args.options.variant.clone(),
             ..OpenOptions::default()
         },
     )?;
@@ -153,7 +154,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         let film = snap.film.as_ref().ok_or("the render stopped before its samples were done")?;
         let header = Header {
             format: FORMAT,
-            scene: scene_id(args.scene.as_deref(), &view)?,
+            scene: scene_id(args.scene.as_deref(), &view, args.options.variant.as_deref())?,
             settings: toml::to_string(&settings.image_defining()).map_err(|e| e.to_string())?,
             camera: format!("{camera:?}"),
             display: view.display,
@@ -234,11 +235,14 @@ fn edited(scene: Scene, view: &ViewFile, path: Option<&Path>, save_gltf: Option<
     Ok(if view.has_edits() { scene.with_edits(materials, lights) } else { scene })
 }
 
-/// What a piece's header names its scene by: the hash of the file and its sidecars, and of
-/// the view file's material and light edits if it has any (pieces of differently edited
-/// scenes must not merge).
-fn scene_id(path: Option<&Path>, view: &ViewFile) -> Result<String, String> {
-    let hash = super::merge::scene_hash(path)?;
+/// What a piece's header names its scene by: the hash of the file and its sidecars, its
+/// material variant, and the hash of the view file's material and light edits if it has any
+/// (pieces of differently edited scenes must not merge).
+fn scene_id(path: Option<&Path>, view: &ViewFile, variant: Option<&str>) -> Result<String, String> {
+    let mut hash = super::merge::scene_hash(path)?;
+    if let Some(v) = variant {
+        hash = format!("{hash} variant {v:?}");
+    }
     if !view.has_edits() {
         return Ok(hash);
     }

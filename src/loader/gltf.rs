@@ -11,7 +11,7 @@
 
 use super::limits::{self, Attributes, Limits, PrimitiveShape, format_bytes};
 use super::resources::{self, Encoded, Tally};
-use super::{LoadError, Refusal, attributes, draco, graph, instancing, meshopt};
+use super::{LoadError, Refusal, attributes, draco, graph, instancing, meshopt, variants};
 use crate::medium::phase::MAX_G;
 use crate::scene::{
     MeshDesc, SceneDesc,
@@ -46,6 +46,7 @@ const SUPPORTED_EXTENSIONS: &[&str] = &[
     meshopt::EXTENSION,
     draco::EXTENSION,
     instancing::EXTENSION,
+    variants::EXTENSION,
     WEBP,
     BASISU,
 ];
@@ -531,10 +532,10 @@ fn describe(e: &gltf::Error) -> String {
 
 /// Collects warnings without repeating one.
 #[derive(Default)]
-struct Warnings(BTreeSet<String>);
+pub(super) struct Warnings(BTreeSet<String>);
 
 impl Warnings {
-    fn add(&mut self, w: impl Into<String>) {
+    pub(super) fn add(&mut self, w: impl Into<String>) {
         self.0.insert(w.into());
     }
 }
@@ -546,7 +547,7 @@ fn convert(doc: &Document, buffers: &[buffer::Data], images: Vec<Image>, name: S
             warnings.add(format!("extension {ext} is not supported yet: ignored"));
         }
     }
-    let mut desc = SceneDesc { name, ..SceneDesc::default() };
+    let mut desc = SceneDesc { name, variants: variants::names(doc), ..SceneDesc::default() };
     desc.images = images;
     desc.textures = doc.textures().map(convert_texture).collect();
     let texture_count = desc.textures.len();
@@ -1089,6 +1090,7 @@ fn convert_primitive(
         tangents,
         indices,
         material,
+        variants: variants::mappings(prim, default_material, warnings),
     };
     if normal_mapped && mesh.tangents.is_none() {
         if mesh.uvs.is_none() {

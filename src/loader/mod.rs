@@ -13,6 +13,7 @@ mod resources;
 pub mod save;
 pub mod sidecar;
 mod tangents;
+mod variants;
 
 pub use limits::Limits;
 use std::path::{Path, PathBuf};

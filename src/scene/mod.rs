@@ -104,6 +104,8 @@ pub struct MeshDesc {
     pub indices: Vec<u32>,
     /// Index into the materials.
     pub material: u32,
+    /// KHR_materials_variants: (variant, material) for the variants that change it.
+    pub variants: Vec<(u32, u32)>,
 }
 
 /// Everything a loader produces: a plain description the `Scene` is built from.
@@ -128,6 +130,25 @@ pub struct SceneDesc {
     pub grids: Vec<DensityGrid>,
     /// Things the loader could not honour, one line each.
     pub warnings: Vec<String>,
+    /// KHR_materials_variants' names, indexed like `MeshDesc::variants`.
+    pub variants: Vec<String>,
+}
+
+impl SceneDesc {
+    /// Gives every mesh its material in the KHR_materials_variants variant `name` (meshes the
+    /// variant does not name keep their default material).
+    pub fn select_variant(&mut self, name: &str) -> Result<(), String> {
+        let Some(v) = self.variants.iter().position(|n| n == name) else {
+            let known = if self.variants.is_empty() { "none".to_owned() } else { self.variants.join(", ") };
+            return Err(format!("the scene has no material variant \"{name}\" (its variants: {known})"));
+        };
+        for mesh in &mut self.meshes {
+            if let Some(&(_, material)) = mesh.variants.iter().find(|&&(w, _)| w as usize == v) {
+                mesh.material = material;
+            }
+        }
+        Ok(())
+    }
 }
 
 /// A surface point found by a ray.
@@ -181,14 +202,26 @@ pub struct Scene {
     pub features: Features,
     /// Loader and build warnings, one line each.
     pub warnings: Vec<String>,
+    /// KHR_materials_variants' names (the viewer's picker reopens the file in one).
+    pub variants: Vec<String>,
 }
 
 impl Scene {
     /// Flattens meshes to triangles (dropping degenerate or non-finite ones with a warning),
     /// builds the BVH, the light sampler and the feature set.
     pub fn build(desc: SceneDesc) -> Self {
-        let SceneDesc { name, meshes, mut materials, textures, images, lights, cameras, mut grids, mut warnings } =
-            desc;
+        let SceneDesc {
+            name,
+            meshes,
+            mut materials,
+            textures,
+            images,
+            lights,
+            cameras,
+            mut grids,
+            mut warnings,
+            variants,
+        } = desc;
         let mut material_bounds = vec![(Vec3::INFINITY, Vec3::NEG_INFINITY); materials.len().max(1)];
         if materials.is_empty() {
             materials.push(Material::default());
@@ -289,6 +322,7 @@ impl Scene {
             bounds,
             features: Features::default(),
             warnings,
+            variants,
         };
         scene.update_lighting();
         scene
@@ -320,6 +354,7 @@ impl Scene {
             bounds: self.bounds,
             features: Features::default(),
             warnings: self.warnings.clone(),
+            variants: self.variants.clone(),
         };
         scene.update_lighting();
         scene

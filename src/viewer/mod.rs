@@ -50,6 +50,8 @@ pub struct Launch {
     pub file_camera: Option<usize>,
     /// Leave a scene without light of its own dark instead of lighting it with the built-in sky.
     pub keep_dark: bool,
+    /// The KHR_materials_variants variant to open the scene in.
+    pub variant: Option<String>,
     /// Render at the view's size instead of following the window.
     pub fixed_size: bool,
     /// Worker threads (None: one per core).
@@ -73,6 +75,7 @@ pub fn run(launch: Launch) -> Result<(), String> {
         file_camera,
         fixed_size,
         keep_dark,
+        variant,
         threads,
         screenshot,
         denoise,
@@ -87,7 +90,12 @@ pub fn run(launch: Launch) -> Result<(), String> {
     }
     let scene = open(
         path.as_deref(),
-        &OpenOptions { environment: view.environment.clone(), keep_dark, ..OpenOptions::default() },
+        &OpenOptions {
+            environment: view.environment.clone(),
+            keep_dark,
+            variant: variant.clone(),
+            ..OpenOptions::default()
+        },
         &mut |_| {},
     )?;
     for w in &scene.warnings {
@@ -99,6 +107,7 @@ pub fn run(launch: Launch) -> Result<(), String> {
     };
     let mut state = ViewerState::new(scene, path, view.settings, fixed_size, view.display, camera, threads)?;
     state.apply_edits(&view)?;
+    state.variant = variant;
     state.denoiser.enabled = denoise;
     if let Some(gltf) = &save_gltf {
         state.gltf_path = gltf.display().to_string();

@@ -58,6 +58,9 @@ pub enum ImageView {
 /// A scene being loaded on its own thread.
 struct Loading {
     path: PathBuf,
+    /// The material variant asked for, and whether this reopens the current file in it
+    /// (the camera, probes and pin stay).
+    variant: (Option<String>, bool),
     building: Arc<AtomicBool>,
     result: Receiver<Result<Scene, String>>,
 }
@@ -88,6 +91,8 @@ pub struct ViewerState {
     pub scene: Arc<Scene>,
     /// Where it came from (None: built in).
     pub source: Option<PathBuf>,
+    /// The KHR_materials_variants variant it was opened in (None: its default materials).
+    pub variant: Option<String>,
     original: (Vec<Material>, Vec<PunctualLight>),
     session: RenderSession,
     sent: JobKey,
@@ -223,6 +228,7 @@ impl ViewerState {
             startup_map,
             environment_map,
             source,
+            variant: None,
             loading: None,
             restarted: Instant::now(),
             latencies: Vec::new(),
@@ -354,15 +360,27 @@ impl ViewerState {
 
     /// Starts loading a glTF file on a background thread; the current scene keeps rendering.
     pub fn open(&mut self, path: PathBuf) {
+        self.load(path, None, false);
+    }
+
+    /// Reopens the current file in KHR_materials_variants variant `variant` (None: the
+    /// default materials), keeping the view; material edits not saved are dropped.
+    pub fn open_variant(&mut self, variant: Option<String>) {
+        if let Some(path) = self.source.clone() {
+            self.load(path, variant, true);
+        }
+    }
+
+    fn load(&mut self, path: PathBuf, variant: Option<String>, same_file: bool) {
         let (tx, rx) = std::sync::mpsc::channel();
         let building = Arc::new(AtomicBool::new(false));
-        let (p, b) = (path.clone(), Arc::clone(&building));
+        let (p, b, v) = (path.clone(), Arc::clone(&building), variant.clone());
         std::thread::spawn(move || {
             let mut progress = |stage| b.store(stage == Stage::Building, Ordering::Relaxed);
-            let _ = tx.send(open(Some(&p), &OpenOptions::default(), &mut progress));
+            let _ = tx.send(open(Some(&p), &OpenOptions { variant: v, ..OpenOptions::default() }, &mut progress));
         });
         self.error = None;
-        self.loading = Some(Loading { path, building, result: rx });
+        self.loading = Some(Loading { path, variant: (variant, same_file), building, result: rx });
     }
 
     /// What is being loaded and its stage, for the progress display.
@@ -383,6 +401,7 @@ impl ViewerState {
             Err(TryRecvError::Disconnected) => Err(format!("loading {} stopped unexpectedly", loading.path.display())),
         };
         let path = loading.path.clone();
+        let (variant, same_file) = loading.variant.clone();
         self.loading = None;
         match result {
             Ok(scene) => {
@@ -394,10 +413,16 @@ impl ViewerState {
                 };
                 self.environment = scene.environment.as_ref().map_or_else(EnvSettings::default, |e| e.settings.clone());
                 let scene = Arc::new(scene);
+                self.variant = variant;
+                self.original = (scene.materials.clone(), scene.lights.clone());
+                if same_file {
+                    self.scene = scene;
+                    self.selected = None;
+                    return true;
+                }
                 let aspect = self.aspect();
                 self.camera = controller_for(&scene, None, aspect);
                 self.fly_speed = 0.25 * scene.radius().max(1e-3);
-                self.original = (scene.materials.clone(), scene.lights.clone());
                 self.message = (!scene.warnings.is_empty()).then(|| scene.warnings.join("; "));
                 if Path::new(&self.screenshot_dir) == default_screenshot_dir(self.source.as_deref()) {
                     self.screenshot_dir = default_screenshot_dir(Some(&path)).to_string_lossy().into_owned();

@@ -359,6 +359,22 @@ fn files(ui: &mut Ui, state: &mut ViewerState) {
         });
         ui.label(status);
     }
+    if !state.scene.variants.is_empty() {
+        let mut chosen = state.variant.clone();
+        egui::ComboBox::from_label("material variant")
+            .selected_text(chosen.as_deref().unwrap_or("default materials"))
+            .show_ui(ui, |ui| {
+                ui.selectable_value(&mut chosen, None, "default materials");
+                for v in &state.scene.variants {
+                    ui.selectable_value(&mut chosen, Some(v.clone()), v);
+                }
+            })
+            .response
+            .on_hover_text("KHR_materials_variants: reopens the file with this variant's materials");
+        if chosen != state.variant && state.loading_status().is_none() {
+            state.open_variant(chosen);
+        }
+    }
     ui.label("screenshots (F12) go to this folder:");
     ui.add(egui::TextEdit::singleline(&mut state.screenshot_dir).desired_width(f32::INFINITY));
     ui.label("view file (camera + settings)");
