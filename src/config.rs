@@ -270,6 +270,7 @@ mod tests {
             direction: -Vec3::Z,
             color: Vec3::ONE,
             intensity: 1.0,
+            range: None,
             source: None,
         };
         let (mut m, mut l) = (materials.clone(), vec![light.clone()]);

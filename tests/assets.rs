@@ -23,6 +23,7 @@ fn render_without_nan(rel: &str) {
             direction: Vec3::new(-0.3, -1.0, -0.5).normalize(),
             color: Vec3::ONE,
             intensity: 3.0,
+            range: None,
             source: None,
         });
     }

@@ -5,10 +5,12 @@ mod common;
 
 use base64::Engine;
 use glam::Vec3;
+use lucent::integrator::Settings;
 use lucent::loader::{builtin, gltf};
 use lucent::scene::{Scene, SceneDesc};
 use serde_json::{Value, json};
 use std::path::PathBuf;
+use std::sync::Arc;
 
 fn triangles(desc: &SceneDesc) -> usize {
     desc.meshes.iter().map(|m| m.indices.len() / 3).sum()
@@ -504,4 +506,37 @@ fn material_variants_switch_the_materials_they_name() {
     let scene = lucent::open::open(Some(&path), &options, &mut |_| {}).unwrap();
     assert_eq!(scene.geometry.attrs(0).material, 2, "open() applies the variant");
     assert_eq!(scene.variants, ["red", "blue", "plain"]);
+}
+
+#[test]
+fn punctual_light_ranges_are_read_and_window_the_light() {
+    let mut doc: Value = serde_json::from_slice(&one_triangle(json!({"mesh": 0}), [0, 1, 2])).unwrap();
+    doc["extensionsUsed"] = json!(["KHR_lights_punctual"]);
+    doc["extensions"] = json!({"KHR_lights_punctual": {"lights": [
+        {"type": "point", "intensity": 10.0, "range": 0.5},
+        {"type": "point", "intensity": 10.0}
+    ]}});
+    doc["nodes"] = json!([
+        {"mesh": 0},
+        {"translation": [0.25, 0.25, 1.0], "extensions": {"KHR_lights_punctual": {"light": 0}}},
+        {"translation": [0.25, 0.25, 1.0], "extensions": {"KHR_lights_punctual": {"light": 1}}}
+    ]);
+    doc["scenes"] = json!([{"nodes": [0, 1, 2]}]);
+    let path = temp("range.gltf", &serde_json::to_vec(&doc).unwrap());
+    let desc = gltf::load(&path).unwrap_or_else(|e| panic!("{e}"));
+    let mut ranges: Vec<Option<f32>> = desc.lights.iter().map(|l| l.range).collect();
+    ranges.sort_by(|a, b| a.partial_cmp(b).unwrap());
+    assert_eq!(ranges, [None, Some(0.5)]);
+    // The triangle lies 1 m below both lights: past the first's range, within the second's.
+    let ranged = |range: Option<f32>| {
+        let mut desc = gltf::load(&path).unwrap();
+        desc.lights.retain(|l| l.range == range);
+        let scene = Arc::new(Scene::build(desc));
+        let camera = scene.default_camera(1.0);
+        let settings = Settings { width: 8, height: 8, target_spp: Some(4), ..Settings::default() };
+        let snap = common::render(&scene, camera, settings, None);
+        snap.mean.iter().map(|c| c.element_sum() as f64).sum::<f64>()
+    };
+    assert_eq!(ranged(Some(0.5)), 0.0, "out of range: no light");
+    assert!(ranged(None) > 0.0, "without a range the triangle is lit");
 }

@@ -1128,6 +1128,8 @@ fn convert_light(light: &gltf::khr_lights_punctual::Light, node: &gltf::Node, pa
             PunctualKind::Spot(Cone::new(inner_cone_angle, outer_cone_angle))
         }
     };
+    // A range of 0, negative or not finite is no range; a directional light has none.
+    let range = light.range().filter(|r| *r > 0.0 && r.is_finite() && !matches!(kind, PunctualKind::Directional));
     let light = PunctualLight {
         name: light.name().unwrap_or("light").into(),
         kind,
@@ -1135,6 +1137,7 @@ fn convert_light(light: &gltf::khr_lights_punctual::Light, node: &gltf::Node, pa
         direction: world.transform_vector3(-DVec3::Z).normalize_or(-DVec3::Z).as_vec3(),
         color: Vec3::from(light.color()),
         intensity: light.intensity(),
+        range,
         source: Some(LightSource { light: light.index() as u32, node: node.index() as u32, parent }),
     };
     (light, world.transform_point3(DVec3::ZERO))

@@ -801,6 +801,7 @@ mod tests {
             direction: -Vec3::Z,
             color: Vec3::ONE,
             intensity: 1.0,
+            range: None,
             source: None,
         };
         assert_eq!(light_problem(&light), None);

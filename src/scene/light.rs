@@ -74,6 +74,9 @@ pub struct PunctualLight {
     pub color: Vec3,
     /// glTF intensity: candela for point and spot lights, lux for directional ones.
     pub intensity: f32,
+    /// KHR_lights_punctual `range` of a point or spot light: the distance at which its
+    /// intensity reaches zero (None: infinite, the inverse square alone).
+    pub range: Option<f32>,
     /// Where it is in its file (None: not from a file).
     pub source: Option<LightSource>,
 }
@@ -96,6 +99,13 @@ impl PunctualLight {
             }
             _ => intensity,
         }
+    }
+
+    /// The window KHR_lights_punctual recommends for `range`, by which the inverse-square
+    /// falloff is scaled at squared distance `dist2`: `clamp(1 - (d / range)^4, 0, 1)`
+    /// (1 without a range).
+    pub fn range_window(&self, dist2: f32) -> f32 {
+        self.range.map_or(1.0, |r| (1.0 - (dist2 / (r * r)).powi(2)).clamp(0.0, 1.0))
     }
 
     /// Total emitted power (luminance-weighted), used to choose lights.
@@ -278,7 +288,8 @@ impl Scene {
                         let to_light = light.position - p;
                         let dist2 = to_light.length_squared();
                         let wi = to_light / dist2.sqrt();
-                        (wi, light.intensity_towards(-wi) / dist2, LightTarget::Point(light.position))
+                        let radiance = light.intensity_towards(-wi) * (light.range_window(dist2) / dist2);
+                        (wi, radiance, LightTarget::Point(light.position))
                     }
                 };
                 if radiance.is_black() || !wi.is_finite() {
@@ -356,11 +367,32 @@ mod tests {
             direction: -Vec3::Z,
             color: Vec3::ONE,
             intensity: 1.0,
+            range: None,
             source: None,
         };
         assert_eq!(l.intensity_towards(-Vec3::Z), Spectrum::ONE);
         assert_eq!(l.intensity_towards(Vec3::X), Spectrum::ZERO);
         let mid = l.intensity_towards(Vec3::new(0.0, (1.0f32 - 0.85 * 0.85).sqrt(), -0.85)).to_rgb().x;
         assert!((mid - 0.25).abs() < 1e-3);
+    }
+
+    #[test]
+    fn the_range_window_is_one_at_the_light_and_zero_from_the_range_on() {
+        let l = |range| PunctualLight {
+            name: "p".into(),
+            kind: PunctualKind::Point,
+            position: Vec3::ZERO,
+            direction: -Vec3::Z,
+            color: Vec3::ONE,
+            intensity: 1.0,
+            range,
+            source: None,
+        };
+        assert_eq!(l(None).range_window(1e6), 1.0);
+        let ranged = l(Some(2.0));
+        assert_eq!(ranged.range_window(0.0), 1.0);
+        assert_eq!(ranged.range_window(1.0), 1.0 - 1.0 / 16.0, "d = range / 2");
+        assert_eq!(ranged.range_window(4.0), 0.0);
+        assert_eq!(ranged.range_window(9.0), 0.0);
     }
 }
