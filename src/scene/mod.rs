@@ -616,10 +616,22 @@ fn build_light_sampler(
         .collect();
     let mut candidates = Vec::new();
     for t in 0..geometry.len() as u32 {
-        let le = mean_emission[geometry.attrs(t).material as usize];
+        let material = geometry.attrs(t).material as usize;
+        let le = mean_emission[material];
         if le > 0.0 {
             let p = geometry.positions(t);
             let area = 0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length();
+            let le = match materials[material].emissive_tex {
+                // A textured emitter is weighted by its texture over the triangle's UV
+                // footprint, mixed with a tenth of the texture's mean so that every triangle
+                // that may emit keeps a chance (explicit light sampling counts no other way).
+                Some(tex) => {
+                    let uv = triangle_uvs(geometry, t, tex.set);
+                    let footprint = footprint_emission(materials[material].emitted(), tex, uv, textures, images);
+                    0.9 * footprint + 0.1 * le
+                }
+                None => le,
+            };
             candidates.push((LightRef::Triangle(t), std::f32::consts::PI * area * le));
         }
     }
@@ -631,6 +643,42 @@ fn build_light_sampler(
         candidates.push((LightRef::Environment, power));
     }
     LightSampler::new(candidates, geometry.len())
+}
+
+/// Texture coordinates of `set` (0 or 1) at the corners of triangle `t`.
+fn triangle_uvs(geometry: &Geometry, t: u32, set: u8) -> [Vec2; 3] {
+    match (set, geometry.extra(t)) {
+        (1, Some(extra)) => extra.uv1,
+        _ => geometry.attrs(t).uvs,
+    }
+}
+
+/// Mean emitted luminance over a triangle with corner texture coordinates `uv`: `emitted`
+/// times the texture at the centroids of the 16 equal-area cells of the triangle cut four
+/// ways along each edge.
+fn footprint_emission(
+    emitted: Vec3,
+    tex: material::TexRef,
+    uv: [Vec2; 3],
+    textures: &[Texture],
+    images: &[Image],
+) -> f32 {
+    const N: usize = 4;
+    let at = |a: f32, b: f32| {
+        let p = uv[0] + (uv[1] - uv[0]) * a + (uv[2] - uv[0]) * b;
+        luminance(emitted * tex.sample(textures, images, &[p, p], ColorSpace::Srgb).truncate())
+    };
+    let mut sum = 0.0;
+    for i in 0..N {
+        for j in 0..N - i {
+            let (a, b) = (i as f32, j as f32);
+            sum += at((a + 1.0 / 3.0) / N as f32, (b + 1.0 / 3.0) / N as f32);
+            if i + j + 1 < N {
+                sum += at((a + 2.0 / 3.0) / N as f32, (b + 2.0 / 3.0) / N as f32);
+            }
+        }
+    }
+    sum / (N * N) as f32
 }
 
 #[cfg(test)]
@@ -664,5 +712,40 @@ mod tests {
         let flipped = normal_mapped(Vec3::Z, Vec4::new(1.0, 0.0, 0.0, -1.0), up);
         assert!((flipped - Vec3::new(0.0, -0.6, 0.8)).length() < 1e-6, "{flipped}");
         assert_eq!(normal_mapped(Vec3::Z, Vec4::ZERO, m), Vec3::Z, "no tangent: no mapping");
+    }
+
+    #[test]
+    fn textured_emitters_are_chosen_by_the_texture_over_their_footprint() {
+        use texture::Wrap;
+        // A 16x1 emissive texture, white on its left half and black on its right; two
+        // triangles of one area, one mapped into each half.
+        let texels = (0..16).map(|x| if x < 8 { [255, 255, 255, 255] } else { [0, 0, 0, 255] }).collect();
+        let tri = |u0: f32, z: f32| MeshDesc {
+            name: "emitter".into(),
+            positions: vec![Vec3::new(0.0, 0.0, z), Vec3::new(1.0, 0.0, z), Vec3::new(0.0, 1.0, z)],
+            uvs: Some(vec![Vec2::new(u0, 0.1), Vec2::new(u0 + 0.4, 0.1), Vec2::new(u0, 0.9)]),
+            indices: vec![0, 1, 2],
+            ..MeshDesc::default()
+        };
+        let emitter = Material {
+            emissive: Vec3::ONE,
+            emissive_tex: Some(material::TexRef::plain(0)),
+            ..Material::lambert("screen", Vec3::ZERO)
+        };
+        let desc = SceneDesc {
+            meshes: vec![tri(0.05, 0.0), tri(0.55, 1.0)],
+            materials: vec![emitter],
+            textures: vec![Texture { name: "t".into(), image: 0, wrap: [Wrap::Repeat; 2], nearest: false }],
+            images: vec![Image { width: 16, height: 1, texels }],
+            ..SceneDesc::default()
+        };
+        let scene = Scene::build(desc);
+        let pmf = |z: f32| {
+            let t = (0..scene.geometry.len() as u32).find(|&t| scene.geometry.positions(t)[0].z == z).unwrap();
+            scene.light_sampler.triangle_pmf(t)
+        };
+        // White footprint: 0.9 x 1 + 0.1 x 0.5 (the texture's mean); black: 0.1 x 0.5.
+        assert!((pmf(0.0) / pmf(1.0) - 19.0).abs() < 1e-3, "{} {}", pmf(0.0), pmf(1.0));
+        assert!((pmf(0.0) + pmf(1.0) - 1.0).abs() < 1e-6);
     }
 }
