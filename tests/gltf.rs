@@ -7,7 +7,7 @@ use base64::Engine;
 use glam::Vec3;
 use lucent::integrator::Settings;
 use lucent::loader::{builtin, gltf};
-use lucent::scene::{Scene, SceneDesc};
+use lucent::scene::{Scene, SceneDesc, texture::Texels};
 use serde_json::{Value, json};
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -348,7 +348,8 @@ fn webp_textures_are_shown_and_images_no_texture_shows_are_not_read() {
     assert_eq!(desc.textures.iter().map(|t| t.image).collect::<Vec<_>>(), [1, 1], "both textures show the WebP");
     let webp = &desc.images[1];
     assert_eq!((webp.width, webp.height), (3, 2));
-    assert_eq!(webp.texels.concat(), texels, "lossless WebP decodes to its source");
+    let want: Vec<[u8; 4]> = texels.chunks_exact(4).map(|c| [c[0], c[1], c[2], c[3]]).collect();
+    assert_eq!(webp.texels, Texels::Bytes(want), "lossless WebP decodes to its source");
 }
 
 #[test]
@@ -396,7 +397,7 @@ fn ktx2_textures_transcode_as_basis_universals_own_transcoder_does() {
         let image = &desc.images[desc.textures[0].image as usize];
         assert_eq!((image.width, image.height), (64, 64), "{mode}");
         assert!(
-            image.texels == png(&format!("{mode}.reference.png")),
+            image.texels == Texels::Bytes(png(&format!("{mode}.reference.png"))),
             "{mode}: as the reference transcoder decodes it"
         );
     }
@@ -539,4 +540,21 @@ fn punctual_light_ranges_are_read_and_window_the_light() {
     };
     assert_eq!(ranged(Some(0.5)), 0.0, "out of range: no light");
     assert!(ranged(None) > 0.0, "without a range the triangle is lit");
+}
+
+#[test]
+fn sixteen_bit_pngs_keep_their_sixteen_bits() {
+    use image::ImageEncoder;
+    // Codes that differ only in their low byte, which 8 bits would merge.
+    let codes: [u16; 4] = [0x1200, 0x12ff, 0x8001, 0xfffe];
+    let raw: Vec<u8> = codes.iter().flat_map(|&c| [c, c, c, u16::MAX]).flat_map(u16::to_ne_bytes).collect();
+    let mut png = Vec::new();
+    image::codecs::png::PngEncoder::new(&mut png).write_image(&raw, 4, 1, image::ExtendedColorType::Rgba16).unwrap();
+    let uri = format!("data:image/png;base64,{}", base64::engine::general_purpose::STANDARD.encode(&png));
+    let mut doc: Value = serde_json::from_slice(&one_triangle(json!({"mesh": 0}), [0, 1, 2])).unwrap();
+    doc["images"] = json!([{"uri": uri}]);
+    doc["textures"] = json!([{"source": 0}]);
+    let desc = gltf::load(&temp("deep.gltf", &serde_json::to_vec(&doc).unwrap())).unwrap_or_else(|e| panic!("{e}"));
+    let want: Vec<[u16; 4]> = codes.iter().map(|&c| [c, c, c, u16::MAX]).collect();
+    assert_eq!(desc.images[0].texels, Texels::Words(want));
 }

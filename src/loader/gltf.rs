@@ -18,7 +18,7 @@ use crate::scene::{
     camera::Camera,
     light::{Cone, LightSource, PunctualKind, PunctualLight},
     material::{AlphaMode, Material, TexRef, VolumeFactors},
-    texture::{Image, Texture, Wrap},
+    texture::{Image, Texels, Texture, Wrap},
 };
 use glam::{Affine2, DMat3, DMat4, DVec3, Vec2, Vec3, Vec4};
 use gltf::json::Value;
@@ -123,7 +123,7 @@ fn import(
     for image in encoded {
         images.push(match image {
             Some(image) => convert_image(resources::decode(image, limits.memory)?),
-            None => Image { width: 1, height: 1, texels: vec![[0; 4]] },
+            None => Image { width: 1, height: 1, texels: Texels::Bytes(vec![[0; 4]]) },
         });
     }
     Ok((read.document, read.buffers, images))
@@ -489,7 +489,10 @@ impl Estimate {
     /// Adds the images (their encoded bytes, decoding one at a time, and the textures kept)
     /// and works out the total.
     fn add_images(&mut self, images: &[&Encoded]) {
-        let texel_bytes = |i: &Encoded| (i.width as u64).saturating_mul(i.height as u64).saturating_mul(limits::TEXEL);
+        let texel_bytes = |i: &Encoded| {
+            let texel = if i.deep { 2 * limits::TEXEL } else { limits::TEXEL };
+            (i.width as u64).saturating_mul(i.height as u64).saturating_mul(texel)
+        };
         let textures = images.iter().map(|i| texel_bytes(i)).fold(0u64, u64::saturating_add);
         let encoded = images.iter().map(|i| i.held()).fold(0u64, u64::saturating_add);
         let decoded = images.iter().map(|i| limits::decoding(i.decoded)).max().unwrap_or(0);
@@ -685,19 +688,21 @@ fn primitive_geometry(doc: &Document) -> Vec<Vec<usize>> {
 /// are clamped to [0, 1], grey is replicated, and grey-alpha fills red and green.
 fn convert_image(image: DynamicImage) -> Image {
     let (width, height) = (image.width(), image.height());
-    let high = |v: u16| (v >> 8) as u8;
     let unit = |v: f32| (v.clamp(0.0, 1.0) * 255.0 + 0.5) as u8;
+    let words = |texels: Vec<[u16; 4]>| Texels::Words(texels);
     let texels = match image {
-        DynamicImage::ImageLuma8(b) => b.pixels().map(|p| [p[0], p[0], p[0], 255]).collect(),
-        DynamicImage::ImageLumaA8(b) => b.pixels().map(|p| [p[0], p[1], 0, 255]).collect(),
-        DynamicImage::ImageRgb8(b) => b.pixels().map(|p| [p[0], p[1], p[2], 255]).collect(),
-        DynamicImage::ImageLuma16(b) => b.pixels().map(|p| [high(p[0]), high(p[0]), high(p[0]), 255]).collect(),
-        DynamicImage::ImageLumaA16(b) => b.pixels().map(|p| [high(p[0]), high(p[1]), 0, 255]).collect(),
-        DynamicImage::ImageRgb16(b) => b.pixels().map(|p| [high(p[0]), high(p[1]), high(p[2]), 255]).collect(),
-        DynamicImage::ImageRgba16(b) => b.pixels().map(|p| p.0.map(high)).collect(),
-        DynamicImage::ImageRgb32F(b) => b.pixels().map(|p| [unit(p[0]), unit(p[1]), unit(p[2]), 255]).collect(),
-        DynamicImage::ImageRgba32F(b) => b.pixels().map(|p| p.0.map(unit)).collect(),
-        other => other.into_rgba8().pixels().map(|p| p.0).collect(),
+        DynamicImage::ImageLuma8(b) => Texels::Bytes(b.pixels().map(|p| [p[0], p[0], p[0], 255]).collect()),
+        DynamicImage::ImageLumaA8(b) => Texels::Bytes(b.pixels().map(|p| [p[0], p[1], 0, 255]).collect()),
+        DynamicImage::ImageRgb8(b) => Texels::Bytes(b.pixels().map(|p| [p[0], p[1], p[2], 255]).collect()),
+        DynamicImage::ImageLuma16(b) => words(b.pixels().map(|p| [p[0], p[0], p[0], u16::MAX]).collect()),
+        DynamicImage::ImageLumaA16(b) => words(b.pixels().map(|p| [p[0], p[1], 0, u16::MAX]).collect()),
+        DynamicImage::ImageRgb16(b) => words(b.pixels().map(|p| [p[0], p[1], p[2], u16::MAX]).collect()),
+        DynamicImage::ImageRgba16(b) => words(b.pixels().map(|p| p.0).collect()),
+        DynamicImage::ImageRgb32F(b) => {
+            Texels::Bytes(b.pixels().map(|p| [unit(p[0]), unit(p[1]), unit(p[2]), 255]).collect())
+        }
+        DynamicImage::ImageRgba32F(b) => Texels::Bytes(b.pixels().map(|p| p.0.map(unit)).collect()),
+        other => Texels::Bytes(other.into_rgba8().pixels().map(|p| p.0).collect()),
     };
     Image { width, height, texels }
 }

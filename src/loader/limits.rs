@@ -40,7 +40,7 @@ pub(crate) const TRIANGLE_EXTRA: u64 = 3 * bytes_of::<TriExtra>();
 /// every triangle when any material emits.
 pub(crate) const EMISSIVE_TRIANGLE: u64 = 2 * 12 + 8 + (4 + 8 + 8 + 2 * 8) + 8 + 4;
 
-/// A texel of a decoded texture as the renderer keeps it (RGBA8).
+/// A texel of a decoded texture as the renderer keeps it (RGBA8; twice that for 16-bit images).
 pub(crate) const TEXEL: u64 = 4;
 
 /// A decoder's own state beyond the image it decodes into, as a fraction (1/8) of that

@@ -127,6 +127,8 @@ pub struct Encoded<'a> {
     pub height: u32,
     /// Bytes of the decoded image (width x height x channels x bytes per channel).
     pub decoded: u64,
+    /// Whether its channels have 16 bits, kept as 16-bit texels.
+    pub deep: bool,
 }
 
 impl Encoded<'_> {
@@ -175,7 +177,7 @@ pub fn image_headers<'a>(
             let (width, height) = texture.base_dimensions();
             let decoded = u64::from(width) * u64::from(height) * 4;
             drop(texture);
-            out.push(Some(Encoded { name, bytes, format: None, width, height, decoded }));
+            out.push(Some(Encoded { name, bytes, format: None, width, height, decoded, deep: false }));
             continue;
         }
         let mut reader = ImageReader::new(Cursor::new(&*bytes)).with_guessed_format().map_err(|e| header(&e))?;
@@ -187,9 +189,11 @@ pub fn image_headers<'a>(
         let decoder = reader.into_decoder().map_err(|e| header(&e.to_string().replace('\n', " ")))?;
         let (width, height) = decoder.dimensions();
         let decoded = decoder.total_bytes();
+        let color = decoder.color_type();
+        let deep = color.bytes_per_pixel() / color.channel_count() == 2;
         drop(decoder);
         let format = Some(format);
-        out.push(Some(Encoded { name, bytes, format, width, height, decoded }));
+        out.push(Some(Encoded { name, bytes, format, width, height, decoded, deep }));
     }
     Ok(out)
 }

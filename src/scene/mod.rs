@@ -736,7 +736,7 @@ mod tests {
             meshes: vec![tri(0.05, 0.0), tri(0.55, 1.0)],
             materials: vec![emitter],
             textures: vec![Texture { name: "t".into(), image: 0, wrap: [Wrap::Repeat; 2], nearest: false }],
-            images: vec![Image { width: 16, height: 1, texels }],
+            images: vec![Image { width: 16, height: 1, texels: texture::Texels::Bytes(texels) }],
             ..SceneDesc::default()
         };
         let scene = Scene::build(desc);

@@ -1,16 +1,26 @@
-//! Texture images (8-bit RGBA) and their samplers: wrap modes, nearest or bilinear lookup.
+//! Texture images (8- or 16-bit RGBA) and their samplers: wrap modes, nearest or bilinear
+//! lookup.
 
 use crate::math::wrap_index;
 use glam::{Vec2, Vec4};
 
-/// An 8-bit RGBA image as decoded from the file.
+/// An RGBA image as decoded from the file.
 pub struct Image {
     /// Width in texels.
     pub width: u32,
     /// Height in texels.
     pub height: u32,
     /// Row-major texels, top row first.
-    pub texels: Vec<[u8; 4]>,
+    pub texels: Texels,
+}
+
+/// Texel storage: 8 bits per channel, or 16 for images that have 16 (PNGs of bit depth 16).
+#[derive(Clone, Debug, PartialEq)]
+pub enum Texels {
+    /// 8-bit codes.
+    Bytes(Vec<[u8; 4]>),
+    /// 16-bit codes.
+    Words(Vec<[u16; 4]>),
 }
 
 /// How coordinates outside [0, 1] map back into the image (glTF sampler wrap modes).
@@ -60,14 +70,37 @@ struct Lut {
 static LUT: std::sync::LazyLock<Lut> =
     std::sync::LazyLock::new(|| Lut { srgb: std::array::from_fn(|i| srgb_to_linear(i as u8)) });
 
+/// The same for 16-bit codes (256 KiB, built the first time a 16-bit image is read).
+static LUT16: std::sync::LazyLock<Vec<f32>> = std::sync::LazyLock::new(|| {
+    (0..=u16::MAX)
+        .map(|c| {
+            let c = f32::from(c) / 65535.0;
+            if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) }
+        })
+        .collect()
+});
+
 impl Image {
     fn texel(&self, x: i64, y: i64, space: ColorSpace) -> Vec4 {
-        let t = self.texels[(y as usize) * self.width as usize + x as usize];
-        let lin = |c: u8| match space {
-            ColorSpace::Srgb => LUT.srgb[c as usize],
-            ColorSpace::Linear => c as f32 / 255.0,
-        };
-        Vec4::new(lin(t[0]), lin(t[1]), lin(t[2]), t[3] as f32 / 255.0)
+        let i = (y as usize) * self.width as usize + x as usize;
+        match &self.texels {
+            Texels::Bytes(texels) => {
+                let t = texels[i];
+                let lin = |c: u8| match space {
+                    ColorSpace::Srgb => LUT.srgb[c as usize],
+                    ColorSpace::Linear => c as f32 / 255.0,
+                };
+                Vec4::new(lin(t[0]), lin(t[1]), lin(t[2]), t[3] as f32 / 255.0)
+            }
+            Texels::Words(texels) => {
+                let t = texels[i];
+                let lin = |c: u16| match space {
+                    ColorSpace::Srgb => LUT16[c as usize],
+                    ColorSpace::Linear => f32::from(c) / 65535.0,
+                };
+                Vec4::new(lin(t[0]), lin(t[1]), lin(t[2]), f32::from(t[3]) / 65535.0)
+            }
+        }
     }
 
     /// Mean linear colour of the image, used to estimate emitted power.
@@ -119,7 +152,7 @@ mod tests {
 
     fn checker() -> Vec<Image> {
         let texels = vec![[0, 0, 0, 255], [255, 255, 255, 255], [255, 255, 255, 255], [0, 0, 0, 255]];
-        vec![Image { width: 2, height: 2, texels }]
+        vec![Image { width: 2, height: 2, texels: Texels::Bytes(texels) }]
     }
 
     #[test]
