@@ -558,3 +558,35 @@ fn sixteen_bit_pngs_keep_their_sixteen_bits() {
     let want: Vec<[u16; 4]> = codes.iter().map(|&c| [c, c, c, u16::MAX]).collect();
     assert_eq!(desc.images[0].texels, Texels::Words(want));
 }
+
+#[test]
+fn unlit_materials_show_their_base_colour_to_the_camera_and_light_nothing() {
+    let mut doc: Value = serde_json::from_slice(&one_triangle(json!({"mesh": 0}), [0, 1, 2])).unwrap();
+    doc["extensionsUsed"] = json!(["KHR_materials_unlit"]);
+    doc["materials"] = json!([
+        {"pbrMetallicRoughness": {"baseColorFactor": [0.25, 0.5, 0.75, 1.0]}, "extensions": {"KHR_materials_unlit": {}}},
+        {"pbrMetallicRoughness": {"baseColorFactor": [1, 1, 1, 1], "metallicFactor": 0}}
+    ]);
+    doc["meshes"] = json!([
+        {"primitives": [{"attributes": {"POSITION": 0, "NORMAL": 1}, "indices": 2, "material": 0}]},
+        {"primitives": [{"attributes": {"POSITION": 0, "NORMAL": 1}, "indices": 2, "material": 1}]}
+    ]);
+    // The white triangle beside the unlit one, turned to face it.
+    doc["nodes"] = json!([{"mesh": 0}, {"mesh": 1, "translation": [1.2, 0.0, 0.3], "rotation": [0.0, -0.38268343, 0.0, 0.9238795]}]);
+    doc["scenes"] = json!([{"nodes": [0, 1]}]);
+    let path = temp("unlit.gltf", &serde_json::to_vec(&doc).unwrap());
+    let both = gltf::load(&path).unwrap_or_else(|e| panic!("{e}"));
+    assert!(both.materials[0].unlit && !both.materials[1].unlit);
+    let mut alone = gltf::load(&path).unwrap();
+    alone.meshes.retain(|m| m.material == 0);
+    let both = Arc::new(Scene::build(both));
+    let alone = Arc::new(Scene::build(alone));
+    let camera = both.default_camera(1.0);
+    let settings = Settings { width: 32, height: 32, target_spp: Some(16), ..Settings::default() };
+    let (a, b) = (common::render(&both, camera, settings, None), common::render(&alone, camera, settings, None));
+    // Pixels wholly inside the unlit triangle show its base colour exactly.
+    let base = Vec3::new(0.25, 0.5, 0.75);
+    assert!(a.mean.iter().any(|&m| (m - base).abs().max_element() < 1e-6), "the base colour is seen");
+    // Nothing lights the white triangle: the image is the unlit triangle's alone.
+    assert_eq!(a.mean, b.mean, "the unlit triangle lights nothing");
+}

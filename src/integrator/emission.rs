@@ -21,7 +21,12 @@ pub fn emitted(
     last: Option<Scattered>,
     wl: &Wavelengths,
 ) -> Spectrum {
-    if !scene.materials[surface.material as usize].is_emissive() {
+    let material = &scene.materials[surface.material as usize];
+    if !material.is_emissive() {
+        return Spectrum::ZERO;
+    }
+    // An unlit surface is seen by camera rays and through delta bounces only.
+    if material.unlit && last.is_some_and(|s| !s.specular) {
         return Spectrum::ZERO;
     }
     let le = wl.illuminant(scene.emission(surface));

@@ -47,9 +47,13 @@ const SUPPORTED_EXTENSIONS: &[&str] = &[
     draco::EXTENSION,
     instancing::EXTENSION,
     variants::EXTENSION,
+    UNLIT,
     WEBP,
     BASISU,
 ];
+
+/// Materials that show their base colour unlit.
+const UNLIT: &str = "KHR_materials_unlit";
 
 /// WebP textures, decoded by the image crate.
 const WEBP: &str = "EXT_texture_webp";
@@ -910,6 +914,7 @@ fn convert_material(m: &gltf::Material, texture_count: usize, warnings: &mut War
         mat.diffuse_transmission_color_tex =
             texture_json(t.get("diffuseTransmissionColorTexture"), texture_count, warnings);
     }
+    mat.unlit = m.extension_value(UNLIT).is_some();
     if let Some(c) = m.extension_value("KHR_materials_clearcoat") {
         mat.clearcoat = factor(c, "clearcoatFactor", 0.0);
         mat.clearcoat_tex = texture_json(c.get("clearcoatTexture"), texture_count, warnings);

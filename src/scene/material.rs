@@ -188,6 +188,9 @@ pub struct Material {
     pub diffuse_transmission_color_tex: Option<TexRef>,
     /// A measured BRDF replacing every lobe above (assigned by a sidecar file).
     pub measured: Option<Measured>,
+    /// KHR_materials_unlit: camera rays (and chains of delta bounces from them) see the base
+    /// colour; it scatters nothing and lights nothing.
+    pub unlit: bool,
 }
 
 /// A measured BRDF table and the file it came from, shared by the materials using it.
@@ -223,6 +226,7 @@ impl Default for Material {
             emissive: Vec3::ZERO,
             emissive_strength: 1.0,
             emissive_tex: None,
+            unlit: false,
             specular: 1.0,
             specular_tex: None,
             specular_color: Vec3::ONE,
@@ -320,9 +324,9 @@ impl Material {
         self.emissive * self.emissive_strength
     }
 
-    /// Whether the material emits light.
+    /// Whether the material emits light (an unlit material shows its colour as if it did).
     pub fn is_emissive(&self) -> bool {
-        self.emitted().max_element() > 0.0
+        self.emitted().max_element() > 0.0 || self.unlit
     }
 
     /// Makes `volume` the medium of `volume_factors`, unless it is a density grid (which the
@@ -390,6 +394,9 @@ impl Material {
         if let Some(m) = &self.measured {
             return Bsdf::Measured(&m.table);
         }
+        if self.unlit {
+            return Bsdf::Lambert(Lambert { albedo: Spectrum::ZERO });
+        }
         let mut base = self.base_color * surface.color.xyz();
         let lookup = |t: Option<TexRef>, space| {
             t.filter(|_| features.textures).map(|t| t.sample(textures, images, &surface.uv, space))
@@ -451,8 +458,20 @@ impl Material {
         })
     }
 
+    /// What an unlit material shows: base colour x vertex colour x base colour texture. Kept
+    /// out of line so that `emission`, on every light sample, stays small.
+    #[cold]
+    #[inline(never)]
+    fn unlit_colour(&self, textures: &[Texture], images: &[Image], surface: &Surface) -> Spectrum {
+        let tex = self.base_color_tex.map_or(Vec4::ONE, |t| t.sample(textures, images, &surface.uv, ColorSpace::Srgb));
+        Spectrum::from_illuminant_rgb(self.base_color * surface.color.xyz() * tex.xyz())
+    }
+
     /// Emitted radiance at a surface point (the same from every direction on the front side).
     pub fn emission(&self, textures: &[Texture], images: &[Image], surface: &Surface) -> Spectrum {
+        if self.unlit {
+            return self.unlit_colour(textures, images, surface);
+        }
         Spectrum::from_illuminant_rgb(match self.emissive_tex {
             Some(t) => self.emitted() * t.sample(textures, images, &surface.uv, ColorSpace::Srgb).xyz(),
             None => self.emitted(),

@@ -365,7 +365,7 @@ impl Scene {
     /// helmet's visor) decorate a model more than they light it, so a model with only
     /// those counts as unlit.
     pub fn has_own_light(&self) -> bool {
-        let lamp = |m: &Material| m.is_emissive() && m.emissive_tex.is_none();
+        let lamp = |m: &Material| m.is_emissive() && !m.unlit && m.emissive_tex.is_none();
         !self.lights.is_empty()
             || (self.materials.iter().any(lamp)
                 && (0..self.geometry.len() as u32)
@@ -608,6 +608,9 @@ fn build_light_sampler(
     let mean_emission: Vec<f32> = materials
         .iter()
         .map(|m| {
+            if m.unlit {
+                return 0.0;
+            }
             let tex = m.emissive_tex.map_or(Vec3::ONE, |t| {
                 images[textures[t.texture as usize].image as usize].mean(ColorSpace::Srgb).truncate()
             });
