@@ -2,8 +2,7 @@
 //! Draco decoder) into plain buffer views for its accessors, within the memory limit.
 
 use super::Refusal;
-use super::limits::format_bytes;
-use super::resources::Tally;
+use super::resources::{Tally, append_buffer};
 use draco_core::{DataType, DecodeLimits, DecoderBuffer, Mesh, MeshDecoder};
 use gltf::buffer;
 use gltf::json::accessor::{ComponentType, GenericComponentType};
@@ -34,29 +33,16 @@ pub(super) fn decode(json: &mut Root, buffers: &mut Vec<buffer::Data>, tally: &m
             let what = format!("meshes[{m}].primitives[{p}].extensions.{EXTENSION}");
             let decoded = decode_primitive(json, prim, ext, buffers, tally)
                 .map_err(|e| Refusal::Invalid(format!("{what}: {e}")))?;
-            let bytes: u64 = decoded.iter().map(|(_, b)| b.len() as u64).sum();
-            if bytes > tally.limit.saturating_sub(tally.used) {
-                return Err(Refusal::TooLarge(format!(
-                    "{what} decodes to {}, over the memory limit of {}",
-                    format_bytes(bytes),
-                    format_bytes(tally.limit)
-                )));
-            }
-            tally.used = tally.used.saturating_add(bytes);
+            tally.admit(&what, decoded.iter().map(|(_, b)| b.len() as u64).sum())?;
             fills.extend(decoded);
         }
     }
     for (accessor, bytes) in fills {
-        json.buffers.push(json::Buffer {
-            byte_length: USize64(bytes.len() as u64),
-            name: None,
-            uri: None,
-            extensions: None,
-            extras: Default::default(),
-        });
+        let length = USize64(bytes.len() as u64);
+        let buffer = append_buffer(json, buffers, bytes);
         json.buffer_views.push(json::buffer::View {
-            buffer: Index::new(json.buffers.len() as u32 - 1),
-            byte_length: USize64(bytes.len() as u64),
+            buffer: Index::new(buffer),
+            byte_length: length,
             byte_offset: None,
             byte_stride: None,
             name: None,
@@ -67,7 +53,6 @@ pub(super) fn decode(json: &mut Root, buffers: &mut Vec<buffer::Data>, tally: &m
         let a = &mut json.accessors[accessor];
         a.buffer_view = Some(Index::new(json.buffer_views.len() as u32 - 1));
         a.byte_offset = None;
-        buffers.push(buffer::Data(bytes));
     }
     Ok(())
 }
@@ -90,7 +75,7 @@ fn decode_primitive(
         })
         .ok_or("its bufferView reaches past the end of its buffer")?;
     let mut limits = DecodeLimits::default();
-    limits.max_decoded_bytes = tally.limit.saturating_sub(tally.used);
+    limits.max_decoded_bytes = tally.room();
     let mut mesh = Mesh::new();
     // draco-core is written not to panic on bad streams (its fuzzing says so); should one
     // slip through, the file is refused rather than the program ended.

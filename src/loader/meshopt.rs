@@ -2,8 +2,7 @@
 //! (the meshopt crate) into plain ones before anything reads them, within the memory limit.
 
 use super::Refusal;
-use super::limits::format_bytes;
-use super::resources::Tally;
+use super::resources::{Tally, append_buffer};
 use gltf::buffer;
 use gltf::json::{self, Index, Root, Value, validation::USize64};
 use meshopt::encoding as codec;
@@ -53,29 +52,17 @@ pub(super) fn decode(json: &mut Root, buffers: &mut Vec<buffer::Data>, tally: &m
                 "invalid glTF: {what}: {count} elements of {stride} bytes do not fit the view's byteLength"
             )));
         };
-        if decoded > tally.limit.saturating_sub(tally.used) {
-            return Err(Refusal::TooLarge(format!(
-                "{what} decodes to {}, over the memory limit of {}",
-                format_bytes(decoded),
-                format_bytes(tally.limit)
-            )));
-        }
+        // Counted before decoding: every mode and filter decodes count x stride bytes.
+        tally.admit(&what, decoded)?;
         let bytes = decode_view(&mode, &filter, stride as usize, count as usize, data)
             .map_err(|e| Refusal::Invalid(format!("{what} (mode {mode}, filter {filter}): {e}")))?;
-        tally.used = tally.used.saturating_add(bytes.len() as u64);
-        json.buffers.push(json::Buffer {
-            byte_length: USize64(bytes.len() as u64),
-            name: None,
-            uri: None,
-            extensions: None,
-            extras: Default::default(),
-        });
+        let length = USize64(bytes.len() as u64);
+        let buffer = append_buffer(json, buffers, bytes);
         let view = &mut json.buffer_views[i];
-        view.buffer = Index::new(json.buffers.len() as u32 - 1);
+        view.buffer = Index::new(buffer);
         view.byte_offset = Some(USize64(0));
-        view.byte_length = USize64(bytes.len() as u64);
+        view.byte_length = length;
         view.extensions = None;
-        buffers.push(buffer::Data(bytes));
     }
     Ok(())
 }

@@ -21,9 +21,36 @@ pub struct Tally {
 
 impl Tally {
     /// Room left under the limit.
-    fn room(&self) -> u64 {
+    pub fn room(&self) -> u64 {
         self.limit.saturating_sub(self.used)
     }
+
+    /// Counts `bytes` that `what` decodes to, or refuses them if they do not fit.
+    pub fn admit(&mut self, what: &str, bytes: u64) -> Result<(), Refusal> {
+        if bytes > self.room() {
+            return Err(Refusal::TooLarge(format!(
+                "{what} decodes to {}, over the memory limit of {}",
+                format_bytes(bytes),
+                format_bytes(self.limit)
+            )));
+        }
+        self.used = self.used.saturating_add(bytes);
+        Ok(())
+    }
+}
+
+/// Appends decoded `bytes` to the document as a buffer of its own (without a URI) and to
+/// `buffers` as its data; returns the buffer's index.
+pub fn append_buffer(json: &mut gltf::json::Root, buffers: &mut Vec<buffer::Data>, bytes: Vec<u8>) -> u32 {
+    json.buffers.push(gltf::json::Buffer {
+        byte_length: gltf::json::validation::USize64(bytes.len() as u64),
+        name: None,
+        uri: None,
+        extensions: None,
+        extras: Default::default(),
+    });
+    buffers.push(buffer::Data(bytes));
+    json.buffers.len() as u32 - 1
 }
 
 /// A URI as messages show it (data URIs are long).
