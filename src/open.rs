@@ -9,6 +9,7 @@ use crate::memory::Limits;
 use crate::scene::{
     Scene,
     environment::{EnvSettings, Environment},
+    instances::Instancing,
 };
 use std::path::Path;
 
@@ -36,6 +37,8 @@ pub struct OpenOptions {
     pub limits: Limits,
     /// The KHR_materials_variants variant to give the meshes' materials (None: the defaults).
     pub variant: Option<String>,
+    /// Which meshes placed many times stay instanced.
+    pub instancing: Instancing,
 }
 
 /// Opens the glTF file at `path` (None: the built-in Cornell box) lit by
@@ -55,6 +58,7 @@ pub fn open(path: Option<&Path>, options: &OpenOptions, progress: &mut dyn FnMut
     if let Some(variant) = &options.variant {
         desc.select_variant(variant)?;
     }
+    desc.apply_instancing(options.instancing, options.limits.memory / crate::loader::limits::TRIANGLE)?;
     progress(Stage::Building);
     let mut scene = Scene::build(desc);
     if environment.is_none() && !options.keep_dark && !scene.has_own_light() {

@@ -13,7 +13,7 @@ use base64::Engine;
 use lucent::integrator::Settings;
 use lucent::loader::{Limits, LoadError, builtin, gltf};
 use lucent::render::{Job, RenderSession, SessionError, film_bytes};
-use lucent::scene::Scene;
+use lucent::scene::{Scene, geometry::Ray, instances::Instancing};
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngAlgorithm, TestCaseError, TestRng, TestRunner};
 use serde_json::{Value, json};
@@ -116,6 +116,11 @@ fn the_estimate_covers_what_loading_and_building_take_and_is_not_far_above() {
         ("grid-normal-mapped-100k.gltf", Grid { n: 224, normal_mapped: true, ..Grid::default() }.file()),
         ("grid-strip-100k.gltf", Grid { n: 224, strips: true, ..Grid::default() }.file()),
         ("grid-emissive-100k.gltf", Grid { n: 224, emissive: true, ..Grid::default() }.file()),
+        ("grid-2k-placed-20k-times.gltf", Grid { n: 32, copies: 20_000, ..Grid::default() }.file()),
+        (
+            "grid-emissive-8k-placed-500-times.gltf",
+            Grid { n: 64, copies: 500, emissive: true, ..Grid::default() }.file(),
+        ),
     ] {
         let path = dir.join(name);
         std::fs::write(&path, doc).unwrap();
@@ -141,6 +146,33 @@ fn the_estimate_covers_what_loading_and_building_take_and_is_not_far_above() {
             "{name}: the estimate of {estimate} bytes is over twice the peak of {peak}"
         );
     }
+}
+
+#[test]
+fn a_mesh_placed_many_times_is_stored_once_and_loads_in_bounded_memory() {
+    let _turn = serial();
+    // 2,048 triangles under 20,000 nodes: 41 M placed triangles, some 14 GB flattened.
+    let path = temp_dir("instanced").join("grid-2k-x-20k.gltf");
+    std::fs::write(&path, Grid { n: 32, copies: 20_000, ..Grid::default() }.file()).unwrap();
+    let limits = Limits { memory: 200 * MB };
+    let (scene, peak) = peak_of(|| {
+        let desc = gltf::load_with_limits(&path, &limits).unwrap_or_else(|e| panic!("{e}"));
+        Scene::build(desc)
+    });
+    assert_eq!(scene.geometry.len(), 2_048 * 20_000);
+    assert_eq!((scene.geometry.unique_len(), scene.geometry.instance_count()), (2_048, 20_000));
+    assert!(peak < 100 * MB, "loading and building peaked at {peak} bytes");
+    assert!(scene.geometry.bytes() < 20 * MB as usize, "{} bytes", scene.geometry.bytes());
+    // Rays down onto the first and the last copy hit them, and one between copies misses.
+    let (lo, hi) = scene.bounds;
+    let down = |x: f32, y: f32| Ray { o: glam::Vec3::new(x, y, hi.z + 1.0), d: -glam::Vec3::Z, tmax: f32::INFINITY };
+    assert!(scene.geometry.intersect(&down(lo.x + 10.3, lo.y + 10.7)).is_some());
+    assert!(scene.geometry.intersect(&down(hi.x - 10.3, hi.y - 10.7)).is_some());
+    assert!(scene.geometry.intersect(&down(lo.x + 32.5, lo.y + 10.7)).is_none());
+    // Flattened, the same scene is refused in one line.
+    let mut desc = gltf::load_with_limits(&path, &limits).unwrap();
+    let err = desc.apply_instancing(Instancing::Never, limits.memory / 400).unwrap_err();
+    assert!(err.contains("40960000 triangles") && !err.contains('\n'), "{err}");
 }
 
 #[test]
@@ -527,6 +559,8 @@ struct Grid {
     strips: bool,
     /// With an emissive material, so that every triangle is a light.
     emissive: bool,
+    /// Nodes placing the mesh, side by side (0 or 1: one node).
+    copies: usize,
 }
 
 /// A grid's glTF document and buffer. Views: 0 positions, 1 normals, 2 UVs, 3 u32 indices,
@@ -544,7 +578,7 @@ struct Parts {
 
 impl Grid {
     fn parts(self) -> Parts {
-        let Grid { n, normal_mapped, strips, emissive } = self;
+        let Grid { n, normal_mapped, strips, emissive, copies } = self;
         let side = n + 1;
         let mut buffer = Vec::new();
         for y in 0..side {
@@ -602,11 +636,15 @@ impl Grid {
         if emissive {
             material["emissiveFactor"] = json!([1.0, 0.5, 0.25]);
         }
+        let copies = copies.max(1);
+        let nodes: Vec<Value> = (0..copies)
+            .map(|i| json!({"mesh": 0, "translation": [(n + 1) * (i % 100), (n + 1) * (i / 100), 0]}))
+            .collect();
         let doc = json!({
             "asset": {"version": "2.0"},
             "scene": 0,
-            "scenes": [{"nodes": [0]}],
-            "nodes": [{"mesh": 0}],
+            "scenes": [{"nodes": (0..copies).collect::<Vec<_>>()}],
+            "nodes": nodes,
             "meshes": [{"primitives": [primitive]}],
             "materials": [material],
             "textures": [{"source": 0}],

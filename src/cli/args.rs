@@ -5,6 +5,7 @@ use crate::config::ViewFile;
 use crate::film::tonemap::DISPLAY;
 use crate::integrator::{Settings, settings::SETTINGS};
 use crate::params::{Domain, Param, Value};
+use crate::scene::instances::Instancing;
 use clap::{Arg, ArgMatches, Args, FromArgMatches, Parser, Subcommand, ValueEnum};
 use std::path::PathBuf;
 
@@ -215,6 +216,12 @@ pub struct RenderOptions {
     /// Give every mesh its material in this KHR_materials_variants variant (by name).
     #[arg(long)]
     pub variant: Option<String>,
+    /// Meshes placed many times: `auto` stores once and traces through a BVH of placements
+    /// those whose copies add up to more than 65,536 triangles and flattens the rest,
+    /// `always` instances every one, `never` flattens every one (memory then follows the
+    /// placed triangles).
+    #[arg(long, default_value = "auto", value_parser = ["auto", "always", "never"])]
+    pub instancing: String,
     /// Every render and display setting (see the table in the README).
     #[command(flatten)]
     pub params: ParamArgs,
@@ -292,6 +299,11 @@ impl RenderOptions {
         }
         environment.validate()?;
         Ok(view)
+    }
+
+    /// What `--instancing` says (auto where it was not given).
+    pub fn instancing(&self) -> Instancing {
+        self.instancing.parse().unwrap_or_default()
     }
 
     /// Whether a scene without light of its own stays dark: the environment was chosen

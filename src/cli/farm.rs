@@ -102,6 +102,7 @@ pub fn run(args: &FarmSlurmArgs) -> Result<(), String> {
             environment: view.environment.clone(),
             keep_dark: args.options.keeps_dark(),
             variant: args.options.variant.clone(),
+            instancing: args.options.instancing(),
             ..OpenOptions::default()
         },
     )?;
@@ -187,6 +188,7 @@ impl Scripts<'_> {
         if let Some(v) = &self.args.options.variant {
             scene.push_str(&format!(" --variant {}", quote(v)));
         }
+        scene.push_str(&format!(" --instancing {}", self.args.options.instancing));
         let mut out = String::new();
         let _ = writeln!(out, "#!/bin/bash");
         let _ = writeln!(out, "# One piece of the render per task of the array (written by lucent farm slurm).");

@@ -61,6 +61,7 @@ pub fn launch(args: &args::ViewArgs) -> Result<Launch, String> {
         fixed_size: args.options.fixed_size(),
         keep_dark: args.options.keeps_dark(),
         variant: args.options.variant.clone(),
+        instancing: args.options.instancing(),
         threads: args.options.threads,
         screenshot: args.screenshot.clone(),
         denoise: args.denoise,

@@ -1,6 +1,6 @@
 //! `lucent render`: open, render progressively to a sample or time budget, write the image.
 
-use super::args::RenderArgs;
+use super::args::{RenderArgs, RenderOptions};
 use crate::config::ViewFile;
 use crate::film::denoise::{self, denoise};
 use crate::film::output::{check_can_write, check_writable, replace_file, write_image};
@@ -9,7 +9,7 @@ use crate::film::window::Window;
 use crate::loader::save;
 use crate::open::{OpenOptions, open};
 use crate::render::{Job, RenderSession, Snapshot};
-use crate::scene::Scene;
+use crate::scene::{Scene, instances::Instancing};
 use indicatif::{ProgressBar, ProgressStyle};
 use sha2::{Digest, Sha256};
 use std::path::{Path, PathBuf};
@@ -91,6 +91,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
             environment: view.environment.clone(),
             keep_dark: args.options.keeps_dark(),
             variant: args.options.variant.clone(),
+            instancing: args.options.instancing(),
             ..OpenOptions::default()
         },
     )?;
@@ -105,12 +106,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     let session =
         RenderSession::new(Job { scene: Arc::clone(&scene), camera, settings, window, aovs }, args.options.threads)
             .map_err(|e| e.to_string())?;
-    eprintln!(
-        "{}: {} triangles, BVH built in {:.3} s",
-        scene.name,
-        scene.geometry.len(),
-        scene.geometry.build_time().as_secs_f64()
-    );
+    eprintln!("{}: {}", scene.name, scene.geometry.summary());
     eprintln!("{}: simulating {}", scene.name, crate::integrator::simulated_effects(&scene, &settings));
 
     let bar = match (args.time, target) {
@@ -154,7 +150,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         let film = snap.film.as_ref().ok_or("the render stopped before its samples were done")?;
         let header = Header {
             format: FORMAT,
-            scene: scene_id(args.scene.as_deref(), &view, args.options.variant.as_deref())?,
+            scene: scene_id(args.scene.as_deref(), &view, &args.options)?,
             settings: toml::to_string(&settings.image_defining()).map_err(|e| e.to_string())?,
             camera: format!("{camera:?}"),
             display: view.display,
@@ -236,12 +232,15 @@ fn edited(scene: Scene, view: &ViewFile, path: Option<&Path>, save_gltf: Option<
 }
 
 /// What a piece's header names its scene by: the hash of the file and its sidecars, its
-/// material variant, and the hash of the view file's material and light edits if it has any
+/// material variant and instancing, and the hash of the view file's material and light edits if it has any
 /// (pieces of differently edited scenes must not merge).
-fn scene_id(path: Option<&Path>, view: &ViewFile, variant: Option<&str>) -> Result<String, String> {
+fn scene_id(path: Option<&Path>, view: &ViewFile, options: &RenderOptions) -> Result<String, String> {
     let mut hash = super::merge::scene_hash(path)?;
-    if let Some(v) = variant {
+    if let Some(v) = &options.variant {
         hash = format!("{hash} variant {v:?}");
+    }
+    if options.instancing() != Instancing::Auto {
+        hash = format!("{hash} instancing {}", options.instancing);
     }
     if !view.has_edits() {
         return Ok(hash);

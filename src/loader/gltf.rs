@@ -20,7 +20,7 @@ use crate::scene::{
     material::{AlphaMode, Material, TexRef, VolumeFactors},
     texture::{Image, Texels, Texture, Wrap},
 };
-use glam::{Affine2, DMat3, DMat4, DVec3, Vec2, Vec3, Vec4};
+use glam::{Affine2, Affine3A, DMat3, DMat4, DVec3, Vec2, Vec3, Vec4};
 use gltf::json::Value;
 use gltf::{Document, Semantic, buffer, khr_lights_punctual::Kind, mesh::Mode, texture::WrappingMode};
 use image::DynamicImage;
@@ -192,6 +192,13 @@ fn read(bytes: &[u8], base: Option<&Path>, limits: &Limits) -> Result<Read, Refu
     }
     check_buffer_views(&document, &buffers)?;
     let placed = check_primitives(&document, &buffers, &mesh_placements)?;
+    let triangles = placed.iter().fold(0u64, |a, p| a.saturating_add(p.copies.saturating_mul(p.shape.triangles)));
+    if triangles > u32::MAX as u64 {
+        return Err(Refusal::TooLarge(format!(
+            "the scene places {triangles} triangles, over the {} one scene can number",
+            u32::MAX
+        )));
+    }
     let estimate = Estimate::new(&document, tally.used, bytes.len() as u64, &placed, &placements);
     Ok(Read { document, buffers, tally, estimate })
 }
@@ -298,6 +305,11 @@ struct Placed {
     shape: PrimitiveShape,
     /// The largest sparse accessor it reads, if any: index, count and type.
     sparse: Option<(usize, u64, gltf::accessor::Dimensions)>,
+    /// Whether its copies are stored once and placed as instances: it is placed more than
+    /// once and has no morph targets (copies at other weights are other geometry).
+    instanced: bool,
+    /// Whether its material emits light (each placed triangle is then a light).
+    emits: bool,
 }
 
 /// Checks the accessors of every primitive that the scene places (inside their buffers,
@@ -317,7 +329,10 @@ fn check_primitives(doc: &Document, buffers: &[buffer::Data], placements: &[u64]
             let name_bytes = mesh.name().map_or(4, str::len) as u64;
             if let Some((shape, sparse)) = primitive_shape(&prim, name_bytes, buffers, quantized)? {
                 let name = format!("meshes[{}].primitives[{}]", mesh.index(), prim.index());
-                placed.push(Placed { name, copies: copies[mesh.index()], shape, sparse });
+                let copies = copies[mesh.index()];
+                let instanced = copies > 1 && prim.morph_targets().len() == 0;
+                let emits = prim.material().emissive_factor().iter().any(|&e| e != 0.0);
+                placed.push(Placed { name, copies, shape, sparse, instanced, emits });
             }
         }
     }
@@ -447,20 +462,34 @@ impl Estimate {
         let any_extra =
             placed.iter().any(|p| p.shape.attributes.uvs1 || p.shape.attributes.colors || p.shape.attributes.tangents);
         let emissive = doc.materials().any(|m| m.emissive_factor().iter().any(|&e| e != 0.0));
-        let per_triangle = limits::TRIANGLE
-            + if any_extra { limits::TRIANGLE_EXTRA } else { 0 }
-            + if emissive { limits::EMISSIVE_TRIANGLE } else { 0 };
+        let per_triangle = limits::TRIANGLE + if any_extra { limits::TRIANGLE_EXTRA } else { 0 };
         let (mut converting, mut transient, mut described) = (0u64, 0u64, 0u64);
         for p in placed {
+            let stored = if p.instanced { 1 } else { p.copies };
+            let instances = if p.instanced { p.copies } else { 0 };
             let triangles = p.copies.saturating_mul(p.shape.triangles);
-            let scene =
-                p.copies.saturating_mul(p.shape.described()).saturating_add(triangles.saturating_mul(per_triangle));
-            converting = converting.saturating_add(p.copies.saturating_mul(p.shape.converting()));
+            // The light sampler holds each placed triangle's probability, and a candidate for
+            // each that emits.
+            let light = match (emissive, p.emits) {
+                (_, true) => limits::EMISSIVE_TRIANGLE,
+                (true, false) => limits::TRIANGLE_PMF,
+                (false, false) => 0,
+            };
+            let scene = stored
+                .saturating_mul(p.shape.described().saturating_add(p.shape.triangles.saturating_mul(per_triangle)))
+                .saturating_add(instances.saturating_mul(limits::INSTANCE))
+                .saturating_add(triangles.saturating_mul(light));
+            converting = converting
+                .saturating_add(stored.saturating_mul(p.shape.converting()))
+                .saturating_add(instances.saturating_mul(limits::PLACEMENT));
             transient = transient.max(p.shape.transient());
             described = described.saturating_add(scene);
             let vertices = p.copies.saturating_mul(p.shape.vertices);
             let mut what = match p.copies {
                 1 => format!("{}: {vertices} vertices and {triangles} triangles", p.name),
+                n if p.instanced => {
+                    format!("{} is placed {n} times: {} triangles stored once", p.name, p.shape.triangles)
+                }
                 n => format!("{} is placed {n} times: {vertices} vertices and {triangles} triangles in all", p.name),
             };
             if let Some((a, count, dims)) = p.sparse {
@@ -569,10 +598,13 @@ fn convert(doc: &Document, buffers: &[buffer::Data], images: Vec<Image>, name: S
             return Ok(desc);
         }
     };
-    let mut placed: Vec<(MeshDesc, Vec<DVec3>)> = Vec::new();
     let mut lights: Vec<(PunctualLight, DVec3)> = Vec::new();
     let mut cameras: Vec<(String, Camera, DVec3)> = Vec::new();
     let geometry = primitive_geometry(doc);
+    // Each primitive placed, with its node and world transform, in the order of the walk.
+    let mut placements: Vec<(gltf::Node, gltf::Mesh, gltf::Primitive, DMat4)> = Vec::new();
+    // How often each piece of geometry (at the node's morph weights) is placed.
+    let mut copies: HashMap<(usize, Vec<u32>), usize> = HashMap::new();
     let mut seen = HashSet::new();
     let mut coincident = 0u64;
     // import has checked that the hierarchy has no cycle and flattens to few enough copies.
@@ -590,34 +622,14 @@ fn convert(doc: &Document, buffers: &[buffer::Data], images: Vec<Image>, name: S
                     // defeat obvhs's PLOC builder, which breaks ties towards the farthest
                     // neighbour: n equal boxes take O(n^2) time and an n-deep tree.)
                     let bits = world.to_cols_array().map(f64::to_bits);
-                    let weight_bits: Vec<u32> =
-                        node.weights().unwrap_or_default().iter().map(|w| w.to_bits()).collect();
-                    if !seen.insert((geometry[mesh.index()][prim.index()], bits, weight_bits)) {
+                    let weight_bits = morph_key(&node, &mesh, &prim);
+                    let id = geometry[mesh.index()][prim.index()];
+                    if !seen.insert((id, bits, weight_bits.clone())) {
                         coincident += 1;
                         continue;
                     }
-                    let normal_mapped = prim.material().normal_texture().is_some();
-                    let weights = node.weights().or(mesh.weights()).unwrap_or_default();
-                    if prim.morph_targets().len() > 0 {
-                        warnings.add(
-                            "morph targets are applied at the node's or mesh's weights (animation is not supported)",
-                        );
-                    }
-                    if node.skin().is_some() {
-                        warnings.add("skinned meshes are shown in their bind pose, placed by their node (skins and animation are not supported)");
-                    }
-                    let converted = convert_primitive(
-                        &prim,
-                        buffers,
-                        world,
-                        default_material,
-                        normal_mapped,
-                        weights,
-                        &mut warnings,
-                    )?;
-                    if let Some((m, p)) = converted {
-                        placed.push((MeshDesc { name: mesh.name().unwrap_or("mesh").into(), ..m }, p));
-                    }
+                    *copies.entry((id, weight_bits)).or_insert(0) += 1;
+                    placements.push((node.clone(), mesh.clone(), prim, world));
                 }
             }
         }
@@ -643,17 +655,63 @@ fn convert(doc: &Document, buffers: &[buffer::Data], images: Vec<Image>, name: S
             "{coincident} placed primitives repeat geometry already placed with the same transform: placed once"
         ));
     }
-    let bounds = placed
-        .iter()
-        .flat_map(|(_, p)| p)
-        .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), &v| (lo.min(v), hi.max(v)));
+    // Geometry placed once is converted to world space; geometry placed more often is
+    // converted once, in its own space, and placed by its transforms.
+    let mut placed: Vec<(MeshDesc, Vec<DVec3>, Vec<DMat4>)> = Vec::new();
+    let mut shared: HashMap<(usize, Vec<u32>), Option<usize>> = HashMap::new();
+    for (node, mesh, prim, world) in placements {
+        let key = (geometry[mesh.index()][prim.index()], morph_key(&node, &mesh, &prim));
+        let many = copies[&key] > 1;
+        if many && let Some(&known) = shared.get(&key) {
+            if let Some(i) = known {
+                placed[i].2.push(world);
+            }
+            continue;
+        }
+        let normal_mapped = prim.material().normal_texture().is_some();
+        let weights = node.weights().or(mesh.weights()).unwrap_or_default();
+        if prim.morph_targets().len() > 0 {
+            warnings.add("morph targets are applied at the node's or mesh's weights (animation is not supported)");
+        }
+        if node.skin().is_some() {
+            warnings.add("skinned meshes are shown in their bind pose, placed by their node (skins and animation are not supported)");
+        }
+        let space = if many { DMat4::IDENTITY } else { world };
+        let converted =
+            convert_primitive(&prim, buffers, space, default_material, normal_mapped, weights, &mut warnings)?;
+        let index = converted.map(|(m, p)| {
+            let instances = if many { vec![world] } else { Vec::new() };
+            placed.push((MeshDesc { name: mesh.name().unwrap_or("mesh").into(), ..m }, p, instances));
+            placed.len() - 1
+        });
+        if many {
+            shared.insert(key, index);
+        }
+    }
+    let bounds = placed.iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |b, (_, p, instances)| {
+        let (lo, hi) = p.iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), &v| (lo.min(v), hi.max(v)));
+        if instances.is_empty() {
+            return (b.0.min(lo), b.1.max(hi));
+        }
+        instances
+            .iter()
+            .flat_map(|t| corners(lo, hi).map(|c| t.transform_point3(c)))
+            .fold(b, |(a, b), v| (a.min(v), b.max(v)))
+    });
     let centre = if bounds.0.is_finite() && bounds.1.is_finite() { 0.5 * (bounds.0 + bounds.1) } else { DVec3::ZERO };
     let relative = |p: DVec3| (p - centre).as_vec3();
+    let centred = DMat4::from_translation(-centre);
     desc.meshes = placed
         .into_iter()
-        .map(|(mesh, p)| MeshDesc { positions: p.into_iter().map(relative).collect(), ..mesh })
+        .map(|(mesh, p, instances)| {
+            if instances.is_empty() {
+                return MeshDesc { positions: p.into_iter().map(relative).collect(), ..mesh };
+            }
+            let positions = p.into_iter().map(|v| v.as_vec3()).collect();
+            let instances = instances.into_iter().map(|t| Affine3A::from_mat4((centred * t).as_mat4())).collect();
+            MeshDesc { positions, instances, ..mesh }
+        })
         .collect();
-    let centred = DMat4::from_translation(-centre);
     let centre_light = |(l, p): (PunctualLight, DVec3)| PunctualLight {
         position: relative(p),
         source: l.source.map(|s| LightSource { parent: centred * s.parent, ..s }),
@@ -666,6 +724,19 @@ fn convert(doc: &Document, buffers: &[buffer::Data], images: Vec<Image>, name: S
     }
     desc.warnings = warnings.0.into_iter().collect();
     Ok(desc)
+}
+
+/// The morph weights `node` places `prim` of `mesh` at, as bits: copies at other weights are other geometry.
+fn morph_key(node: &gltf::Node, mesh: &gltf::Mesh, prim: &gltf::Primitive) -> Vec<u32> {
+    if prim.morph_targets().len() == 0 {
+        return Vec::new();
+    }
+    node.weights().or(mesh.weights()).unwrap_or_default().iter().map(|w| w.to_bits()).collect()
+}
+
+/// The eight corners of the box [lo, hi].
+fn corners(lo: DVec3, hi: DVec3) -> [DVec3; 8] {
+    std::array::from_fn(|k| DVec3::select(glam::BVec3::new(k & 1 != 0, k & 2 != 0, k & 4 != 0), hi, lo))
 }
 
 /// For each mesh's primitives, an id shared by primitives that read the same accessors
@@ -1101,6 +1172,7 @@ fn convert_primitive(
         indices,
         material,
         variants: variants::mappings(prim, default_material, warnings),
+        instances: Vec::new(),
     };
     if normal_mapped && mesh.tangents.is_none() {
         if mesh.uvs.is_none() {

@@ -40,6 +40,22 @@ pub(crate) const TRIANGLE_EXTRA: u64 = 3 * bytes_of::<TriExtra>();
 /// every triangle when any material emits.
 pub(crate) const EMISSIVE_TRIANGLE: u64 = 2 * 12 + 8 + (4 + 8 + 8 + 2 * 8) + 8 + 4;
 
+/// A placed triangle's probability in the light sampler (an f32 per placed triangle), held
+/// when any material emits.
+pub(crate) const TRIANGLE_PMF: u64 = 4;
+
+/// A placement of an instanced mesh while the file is converted: its entry in the list of
+/// placed primitives (node, mesh, primitive and f64 transform) and in the set of placed
+/// (geometry, transform) pairs, each with the slack of growing by doubling, and its f64
+/// transform kept for the mesh.
+pub(crate) const PLACEMENT: u64 = 2 * (3 * 32 + 128) + 2 * (8 + 128 + 24) + 2 * 128;
+
+/// A placement of an instanced mesh in the built scene: its f32 transform in the scene
+/// description, the (mesh, transform) list `Scene::build` gathers, the `Instance` (two
+/// transforms and a normal matrix) before and after ordering, its padded box and obvhs's
+/// build over it (as for a triangle), each list with the slack of growing by doubling.
+pub(crate) const INSTANCE: u64 = 2 * 48 + 2 * 64 + 2 * 160 + 32 + 192;
+
 /// A texel of a decoded texture as the renderer keeps it (RGBA8; twice that for 16-bit images).
 pub(crate) const TEXEL: u64 = 4;
 

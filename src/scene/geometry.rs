@@ -1,17 +1,16 @@
-//! Triangles in BVH order, obvhs's CWBVH over them, and closest-hit and occlusion queries.
+//! The scene's triangles and the queries rays make of them, in two levels (pbrt-v4's
+//! instancing, Pharr et al. 2023, section 7.1.4): the triangles placed once, in world space
+//! under one BVH, and meshes placed many times, each stored once in its own space under its
+//! own BVH, reached through a top-level BVH over their placements, so that memory follows
+//! the unique geometry. Every placed triangle still has one global index: the world's
+//! triangles first, then each placement's.
 
-use glam::{UVec2, Vec2, Vec3, Vec3A, Vec4};
-use obvhs::{
-    BvhBuildParams,
-    aabb::Aabb,
-    cwbvh::{CwBvh, builder::build_cwbvh},
-    ray::{Ray as BvhRay, RayHit},
-    triangle::Triangle,
-};
-use std::cell::Cell;
+use glam::{Affine3A, Mat3A, Vec2, Vec3, Vec4, Vec4Swizzles};
+use obvhs::cwbvh::CwBvh;
 use std::time::Duration;
 
-use super::watertight::{SoaTriangles, Watertight, intersect_group};
+use super::blas::{Blas, build_bvh, padded_box, t_unit, to_bvh_ray, traverse};
+use crate::math::float::gamma;
 
 /// Per-triangle shading attributes, stored in BVH order beside the positions.
 #[derive(Clone, Copy, Debug)]
@@ -60,87 +59,211 @@ pub struct Hit {
     pub b: [f32; 3],
 }
 
-/// Triangle positions plus attributes in BVH order, and the BVH over them.
+/// Triangles as a scene is built from: positions, attributes and, empty or one per
+/// triangle, the optional attributes.
+#[derive(Default)]
+pub struct Triangles {
+    /// Vertex positions.
+    pub positions: Vec<[Vec3; 3]>,
+    /// Shading attributes.
+    pub attrs: Vec<TriAttrs>,
+    /// Optional attributes: empty, or one per triangle.
+    pub extra: Vec<TriExtra>,
+}
+
+/// One placement of a mesh's BVH in the world.
+#[derive(Clone, Copy, Debug)]
+struct Instance {
+    /// Index of the mesh's BVH.
+    mesh: u32,
+    /// Global index of the placement's first triangle.
+    first: u32,
+    /// Object to world.
+    to_world: Affine3A,
+    /// World to object.
+    to_object: Affine3A,
+    /// Transforms normals to world space: the inverse transpose of the linear part.
+    normals: Mat3A,
+    /// Sign of the transform's determinant: a mirroring placement flips tangents' handedness.
+    handedness: f32,
+}
+
+/// All placed triangles and the BVHs over them.
 pub struct Geometry {
-    bvh: CwBvh,
-    positions: Vec<[Vec3; 3]>,
-    /// The positions again as structure of arrays, for testing four triangles at once.
-    soa: SoaTriangles,
-    attrs: Vec<TriAttrs>,
-    extra: Vec<TriExtra>,
-    /// Length of the direction handed to obvhs, so that its ray parameter is in units of
-    /// 1e-5 of the scene's size (see `to_bvh_ray`).
-    t_unit: f32,
-    /// 1 / `t_unit`.
-    inv_t_unit: f32,
-    /// Time obvhs took to build the BVH.
+    /// The triangles placed once, in world space.
+    world: Blas,
+    /// Meshes placed many times, in their own space.
+    meshes: Vec<Blas>,
+    /// The meshes' placements, in the top-level BVH's order; `first` increases along it.
+    instances: Vec<Instance>,
+    /// The top-level BVH over the placements' world bounds.
+    tlas: CwBvh,
+    /// `Blas::t_unit` of the top-level BVH.
+    tlas_t_unit: f32,
+    /// Placed triangles in all.
+    len: usize,
+    /// Time obvhs took to build all the BVHs.
     build_time: Duration,
 }
 
 impl Geometry {
-    /// Builds obvhs's CWBVH over the triangles, then reorders triangles and attributes
-    /// once into BVH order so that traversal indexes them directly. Each triangle's box is
-    /// padded by a bound on the rounding of obvhs's slab test (1e-6 of its coordinates'
-    /// magnitude plus 1e-7 of the scene's size): obvhs compares entry and exit with no
-    /// tolerance, so a ray aimed exactly at a vertex on a box corner could otherwise miss
-    /// every box around it and slip through a closed mesh. `extra` is empty or one per triangle.
+    /// Triangles placed once, with no instances.
     pub fn build(positions: Vec<[Vec3; 3]>, attrs: Vec<TriAttrs>, extra: Vec<TriExtra>) -> Self {
-        let (lo, hi) = positions
+        Self::build_instanced(Triangles { positions, attrs, extra }, Vec::new(), &[])
+    }
+
+    /// `world`'s triangles in world space, and `meshes` each placed at the transforms
+    /// `placements` gives (mesh index, object to world). Placements whose transform cannot
+    /// be inverted, or that name no mesh, are left out. Panics if there are more than
+    /// u32::MAX placed triangles (loaders refuse such scenes first).
+    pub fn build_instanced(world: Triangles, meshes: Vec<Triangles>, placements: &[(u32, Affine3A)]) -> Self {
+        let world = Blas::build(world);
+        let meshes: Vec<Blas> = meshes.into_iter().map(Blas::build).collect();
+        let mut instances: Vec<Instance> = placements
             .iter()
-            .flatten()
-            .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &v| (lo.min(v), hi.max(v)));
-        let size = if positions.is_empty() { 1.0 } else { (hi - lo).length() };
-        let boxes: Vec<Aabb> = positions
-            .iter()
-            .map(|p| {
-                let (min, max) = (p[0].min(p[1]).min(p[2]), p[0].max(p[1]).max(p[2]));
-                let pad = Vec3::splat(1e-6 * min.abs().max(max.abs()).max_element() + 1e-7 * size);
-                Aabb::new((min - pad).into(), (max + pad).into())
+            .filter(|(m, t)| meshes.get(*m as usize).is_some_and(|b| !b.is_empty()) && invertible(t))
+            .map(|&(mesh, to_world)| Instance {
+                mesh,
+                first: 0,
+                to_world,
+                to_object: to_world.inverse(),
+                normals: to_world.matrix3.inverse().transpose(),
+                handedness: to_world.matrix3.determinant().signum(),
             })
             .collect();
-        let mut build_time = Duration::default();
-        let bvh = if boxes.is_empty() {
-            CwBvh::default()
-        } else {
-            build_cwbvh(&boxes, BvhBuildParams::medium_build(), &mut build_time)
-        };
-        let t_unit = (size * 1e-5).clamp(f32::MIN_POSITIVE * 1e10, 1e30);
-        let order = &bvh.primitive_indices;
-        let positions: Vec<[Vec3; 3]> = order.iter().map(|&i| positions[i as usize]).collect();
-        let soa = SoaTriangles::new(&positions);
-        let attrs = order.iter().map(|&i| attrs[i as usize]).collect();
-        let extra = if extra.is_empty() { extra } else { order.iter().map(|&i| extra[i as usize]).collect() };
-        Self { bvh, positions, soa, attrs, extra, t_unit, inv_t_unit: 1.0 / t_unit, build_time }
+        let boxes: Vec<(Vec3, Vec3)> = instances.iter().map(|i| placed_bounds(&meshes[i.mesh as usize], i)).collect();
+        let (lo, hi) = boxes.iter().fold(world.bounds, |(lo, hi), b| (lo.min(b.0), hi.max(b.1)));
+        let size = if lo.cmple(hi).all() { (hi - lo).length() } else { 1.0 };
+        let padded: Vec<_> = boxes.iter().map(|&(lo, hi)| padded_box(lo, hi, size)).collect();
+        let (tlas, tlas_time) = build_bvh(&padded);
+        instances = tlas.primitive_indices.iter().map(|&i| instances[i as usize]).collect();
+        let mut len = world.len();
+        for i in &mut instances {
+            i.first = u32::try_from(len).expect("at most u32::MAX placed triangles");
+            len += meshes[i.mesh as usize].len();
+        }
+        assert!(len <= u32::MAX as usize, "at most u32::MAX placed triangles");
+        let build_time = world.build_time + meshes.iter().map(|m| m.build_time).sum::<Duration>() + tlas_time;
+        Self { world, meshes, instances, tlas, tlas_t_unit: t_unit(size), len, build_time }
     }
 
-    /// Number of triangles (in BVH order, so including any duplicated references).
+    /// Number of placed triangles (each placement of a mesh counts all its triangles).
     pub fn len(&self) -> usize {
-        self.positions.len()
-    }
-
-    /// How long building the BVH took.
-    pub fn build_time(&self) -> Duration {
-        self.build_time
+        self.len
     }
 
     /// Whether there is no triangle at all.
     pub fn is_empty(&self) -> bool {
-        self.positions.is_empty()
+        self.len == 0
     }
 
-    /// Vertex positions of triangle `i` (BVH order).
-    pub fn positions(&self, i: u32) -> &[Vec3; 3] {
-        &self.positions[i as usize]
+    /// Triangles stored: the world's and each mesh's once.
+    pub fn unique_len(&self) -> usize {
+        self.world.len() + self.meshes.iter().map(Blas::len).sum::<usize>()
     }
 
-    /// Shading attributes of triangle `i` (BVH order).
-    pub fn attrs(&self, i: u32) -> &TriAttrs {
-        &self.attrs[i as usize]
+    /// Placements of meshes (0 when every triangle is placed once).
+    pub fn instance_count(&self) -> usize {
+        self.instances.len()
     }
 
-    /// The optional attributes of triangle `i`, if the scene has any.
-    pub fn extra(&self, i: u32) -> Option<&TriExtra> {
-        self.extra.get(i as usize)
+    /// Bytes the triangles, their attributes and the BVHs hold.
+    pub fn bytes(&self) -> usize {
+        let tlas = self.tlas.nodes.len() * std::mem::size_of::<obvhs::cwbvh::node::CwBvhNode>();
+        let instances = self.instances.len() * (std::mem::size_of::<Instance>() + 4);
+        self.world.bytes() + self.meshes.iter().map(Blas::bytes).sum::<usize>() + tlas + instances
+    }
+
+    /// One line: triangles, instances, the BVHs' memory and build time.
+    pub fn summary(&self) -> String {
+        let bytes = crate::memory::format_bytes(self.bytes() as u64);
+        let build = self.build_time.as_secs_f64();
+        match self.instances.len() {
+            0 => format!("{} triangles, {bytes} with the BVH, built in {build:.3} s", self.len),
+            n => format!(
+                "{} triangles placed: {} stored once and {} placements of {} meshes, {bytes} with the BVHs, built in {build:.3} s",
+                self.len,
+                self.unique_len(),
+                n,
+                self.meshes.len()
+            ),
+        }
+    }
+
+    /// How long building the BVHs took.
+    pub fn build_time(&self) -> Duration {
+        self.build_time
+    }
+
+    /// The placement holding global triangle `tri` and the triangle's index in its mesh, or
+    /// None for a triangle of the world.
+    #[inline]
+    fn placement(&self, tri: u32) -> Option<(&Instance, u32)> {
+        if (tri as usize) < self.world.len() {
+            return None;
+        }
+        let i = self.instances.partition_point(|i| i.first <= tri) - 1;
+        let instance = &self.instances[i];
+        Some((instance, tri - instance.first))
+    }
+
+    /// World-space vertex positions of triangle `tri`.
+    #[inline]
+    pub fn positions(&self, tri: u32) -> [Vec3; 3] {
+        match self.placement(tri) {
+            None => *self.world.positions(tri),
+            Some((i, t)) => self.meshes[i.mesh as usize].positions(t).map(|p| i.to_world.transform_point3(p)),
+        }
+    }
+
+    /// Shading attributes of triangle `tri`, with world-space normals.
+    #[inline]
+    pub fn attrs(&self, tri: u32) -> TriAttrs {
+        match self.placement(tri) {
+            None => *self.world.attrs(tri),
+            Some((i, t)) => {
+                let a = self.meshes[i.mesh as usize].attrs(t);
+                let n = |v: Vec3| (i.normals * v).normalize_or_zero();
+                TriAttrs { normals: a.normals.map(n), ng: n(a.ng), ..*a }
+            }
+        }
+    }
+
+    /// The optional attributes of triangle `tri` (world-space tangents), if its mesh has any.
+    #[inline]
+    pub fn extra(&self, tri: u32) -> Option<TriExtra> {
+        match self.placement(tri) {
+            None => self.world.extra(tri).copied(),
+            Some((i, t)) => self.meshes[i.mesh as usize].extra(t).map(|e| {
+                let tangent =
+                    |v: Vec4| (i.to_world.transform_vector3(v.xyz())).normalize_or_zero().extend(v.w * i.handedness);
+                TriExtra { tangents: e.tangents.map(tangent), ..*e }
+            }),
+        }
+    }
+
+    /// Every placed triangle's global index and material, in index order, without the
+    /// per-triangle lookup of `attrs`.
+    pub fn materials(&self) -> impl Iterator<Item = (u32, u32)> + '_ {
+        let world = self.world.all_attrs().iter().map(|a| a.material);
+        let placed =
+            self.instances.iter().flat_map(|i| self.meshes[i.mesh as usize].all_attrs().iter().map(|a| a.material));
+        world.chain(placed).enumerate().map(|(t, m)| (t as u32, m))
+    }
+
+    /// What placing triangle `tri` adds to the error bound of its world-space point `p` at
+    /// barycentrics `b` (zero for the world's triangles): the rounding of transforming its
+    /// vertices to world space, and of transforming a ray's origin at `p` back to the mesh's
+    /// space, carried to world space (pbrt-v4 section 6.8.6, each product and sum rounding
+    /// by at most gamma(1) of its magnitude).
+    pub fn placement_error(&self, tri: u32, b: [f32; 3], p: Vec3) -> Vec3 {
+        let Some((i, t)) = self.placement(tri) else { return Vec3::ZERO };
+        let q = self.meshes[i.mesh as usize].positions(t);
+        let object = (b[0] * q[0]).abs() + (b[1] * q[1]).abs() + (b[2] * q[2]).abs();
+        let (m, m_inv) = (abs(i.to_world.matrix3), abs(i.to_object.matrix3));
+        let to_world = gamma(4) * (m * object + Vec3::from(i.to_world.translation.abs()));
+        let to_object = gamma(4) * (m_inv * p.abs() + Vec3::from(i.to_object.translation.abs()));
+        to_world + m * to_object
     }
 
     /// Closest hit along the ray, if any (watertight test).
@@ -164,155 +287,102 @@ impl Geometry {
         self.occluded_filtered(ray, watertight, |_, _| true)
     }
 
-    /// `intersect_with`, ignoring the hits `accept` (triangle, barycentrics) turns down.
+    /// `intersect_with`, ignoring the hits `accept` (global triangle, barycentrics) turns down.
+    #[inline]
     pub fn intersect_filtered(
         &self,
         ray: &Ray,
         watertight: bool,
         accept: impl Fn(u32, [f32; 3]) -> bool,
     ) -> Option<Hit> {
-        if self.is_empty() {
-            return None;
+        let mut closest = self.world.intersect_filtered(ray, watertight, &accept);
+        if self.instances.is_empty() {
+            return closest;
         }
-        if !watertight {
-            return self.intersect_moller(ray, accept);
-        }
-        let wt = Watertight::new(ray);
-        let r = to_bvh_ray(ray, self.t_unit);
-        // The closest hit so far, in obvhs's ray units as its node tests take it.
-        let bound = Cell::new(r.tmax);
-        let mut closest = None;
-        self.traverse(&r, |group_base, group, node_ray| {
-            let tmax = || bound.get() * self.t_unit;
-            intersect_group(&wt, &self.soa, &self.positions, group_base, group, tmax, |tri, t, b| {
-                let t_bvh = t * self.inv_t_unit;
-                if accept(tri, b) && t_bvh < bound.get() {
-                    bound.set(t_bvh);
-                    closest = Some(Hit { tri, t, b });
-                }
-                true
-            });
-            node_ray.tmax = bound.get();
+        let mut bound = closest.map_or(ray.tmax, |h| h.t);
+        self.placements_along(ray, bound, |i, node_tmax| {
+            let local = i.local_ray(ray, bound);
+            let hit =
+                self.meshes[i.mesh as usize].intersect_filtered(&local, watertight, |t, b| accept(i.first + t, b));
+            if let Some(h) = hit.filter(|h| h.t < bound) {
+                bound = h.t;
+                closest = Some(Hit { tri: i.first + h.tri, ..h });
+                *node_tmax = bound;
+            }
             true
         });
         closest
     }
 
     /// `occluded_with`, ignoring the hits `accept` turns down.
+    #[inline]
     pub fn occluded_filtered(&self, ray: &Ray, watertight: bool, accept: impl Fn(u32, [f32; 3]) -> bool) -> bool {
-        if self.is_empty() {
+        if self.world.occluded_filtered(ray, watertight, &accept) {
+            return true;
+        }
+        if self.instances.is_empty() {
             return false;
         }
-        if !watertight {
-            return self.occluded_moller(ray, accept);
-        }
-        let wt = Watertight::new(ray);
-        let r = to_bvh_ray(ray, self.t_unit);
-        let tmax = r.tmax * self.t_unit;
         let mut blocked = false;
-        self.traverse(&r, |group_base, group, _| {
-            intersect_group(
-                &wt,
-                &self.soa,
-                &self.positions,
-                group_base,
-                group,
-                || tmax,
-                |tri, t, b| {
-                    blocked = accept(tri, b) && t * self.inv_t_unit < r.tmax;
-                    !blocked
-                },
-            );
+        self.placements_along(ray, ray.tmax, |i, _| {
+            let local = i.local_ray(ray, ray.tmax);
+            blocked = self.meshes[i.mesh as usize].occluded_filtered(&local, watertight, |t, b| accept(i.first + t, b));
             !blocked
         });
         blocked
     }
 
-    /// obvhs's CWBVH traversal, handing `leaves` each node's group of hit triangles at once
-    /// (a base index and a bit per triangle above it) with the ray the node tests use, whose
-    /// `tmax` it may lower; `leaves` returns false to stop. obvhs's own `ray_traverse`
-    /// takes triangles one at a time, which rules out testing four together.
-    #[inline]
-    fn traverse(&self, ray: &BvhRay, mut leaves: impl FnMut(u32, u32, &mut BvhRay) -> bool) {
-        let mut node_ray = *ray;
-        let mut state = self.bvh.new_traversal(ray.direction);
-        let mut node;
-        obvhs::traverse!(self.bvh, node, state, node.intersect_ray(&node_ray, state.oct_inv4), {
-            // The macro has just taken the group's highest bit for one triangle: put it
-            // back, take the whole group, and leave none for the macro's next turn.
-            let group = state.primitive_group.y | 1 << (state.primitive_id - state.primitive_group.x);
-            state.primitive_group.y = 0;
-            if !leaves(state.primitive_group.x, group, &mut node_ray) {
-                break;
-            }
-        });
-    }
-
-    /// Closest hit with obvhs's own traversal and Moller-Trumbore test.
-    fn intersect_moller(&self, ray: &Ray, accept: impl Fn(u32, [f32; 3]) -> bool) -> Option<Hit> {
-        let mut hit = RayHit::none();
-        // The closest hit's barycentrics, kept instead of computing them again afterwards.
-        let mut closest = None;
-        let found = self.bvh.ray_traverse(to_bvh_ray(ray, self.t_unit), &mut hit, |r, id| {
-            match self.moller(ray, id, r).filter(|&(_, b)| accept(id as u32, b)) {
-                Some((t, b)) => {
-                    if t < r.tmax {
-                        closest = Some(b);
-                    }
-                    t
+    /// Visits the placements whose bounds the ray enters before `tmax`, in the top-level
+    /// BVH's order; `visit` may lower the bound (in ray units) through its second argument,
+    /// and returns false to stop.
+    fn placements_along(&self, ray: &Ray, tmax: f32, mut visit: impl FnMut(&Instance, &mut f32) -> bool) {
+        let r = to_bvh_ray(&Ray { tmax, ..*ray }, self.tlas_t_unit);
+        let mut bound = tmax;
+        traverse(&self.tlas, &r, |base, mut group, node_ray| {
+            while group != 0 {
+                let i = &self.instances[(base + group.trailing_zeros()) as usize];
+                group &= group - 1;
+                if !visit(i, &mut bound) {
+                    return false;
                 }
-                None => f32::INFINITY,
             }
+            node_ray.tmax = bound / self.tlas_t_unit;
+            true
         });
-        let b = closest.filter(|_| found)?;
-        Some(Hit { tri: hit.primitive_id, t: hit.t * self.t_unit, b })
-    }
-
-    /// Occlusion with obvhs's own traversal and Moller-Trumbore test.
-    fn occluded_moller(&self, ray: &Ray, accept: impl Fn(u32, [f32; 3]) -> bool) -> bool {
-        !self.bvh.ray_traverse_miss(to_bvh_ray(ray, self.t_unit), |r, id| {
-            self.moller(ray, id, r).filter(|&(_, b)| accept(id as u32, b)).map_or(f32::INFINITY, |(t, _)| t)
-        })
-    }
-
-    /// obvhs's Moller-Trumbore test on triangle `id`: positive t in obvhs's ray units, and
-    /// the barycentrics of the hit point.
-    fn moller(&self, ray: &Ray, id: usize, r: &BvhRay) -> Option<(f32, [f32; 3])> {
-        let [v0, v1, v2] = self.positions[id].map(Vec3A::from);
-        let t = Triangle { v0, v1, v2 }.intersect(r);
-        (t > 0.0 && t < f32::INFINITY).then(|| (t, barycentrics(ray.o + t * self.t_unit * ray.d, &self.positions[id])))
     }
 }
 
-/// Barycentric weights of the projection of `q` onto the plane of triangle `p`.
-fn barycentrics(q: Vec3, p: &[Vec3; 3]) -> [f32; 3] {
-    let (e1, e2, d) = (p[1] - p[0], p[2] - p[0], q - p[0]);
-    let n = e1.cross(e2);
-    let inv = 1.0 / n.length_squared();
-    let b1 = d.cross(e2).dot(n) * inv;
-    let b2 = e1.cross(d).dot(n) * inv;
-    [1.0 - b1 - b2, b1, b2]
+impl Instance {
+    /// The ray in the mesh's space, with the same parameter t (its direction is not
+    /// renormalised), up to `tmax`.
+    fn local_ray(&self, ray: &Ray, tmax: f32) -> Ray {
+        Ray { o: self.to_object.transform_point3(ray.o), d: self.to_object.transform_vector3(ray.d), tmax }
+    }
 }
 
-/// The ray as obvhs takes it, with its direction scaled to length `k` times the original.
-/// obvhs's CWBVH node test culls boxes whose exit is below t = 1e-4 (an absolute epsilon in
-/// ray-parameter units), which at scale 1e-4 culls the whole scene; with t in units of 1e-5
-/// of the scene's size, that cut is at 1e-9 of it, below f32 precision. The reciprocal is
-/// exact: obvhs's `Ray::new` clamps components below f32::EPSILON to +-1/EPSILON, moving
-/// the slab planes so that rays aimed at a vertex with a 1e-9 component miss its boxes.
-/// Zero components get +1e30 (no 0 x inf NaN, no overflow in the quantised slab tests),
-/// and adding +0.0 turns -0.0 into +0.0, matching the octant obvhs takes from the sign.
-fn to_bvh_ray(ray: &Ray, k: f32) -> BvhRay {
-    let d = ray.d * k + Vec3::ZERO;
-    let limit = Vec3::splat(1e30);
-    let inv = Vec3::select(d.cmpeq(Vec3::ZERO), limit, (Vec3::ONE / d).clamp(-limit, limit));
-    BvhRay {
-        origin: Vec3A::from(ray.o),
-        direction: Vec3A::from(d),
-        inv_direction: Vec3A::from(inv),
-        tmin: 0.0,
-        tmax: ray.tmax / k,
-    }
+/// Whether the transform `t` can be inverted: its determinant is finite and not zero.
+pub fn invertible(t: &Affine3A) -> bool {
+    let det = t.matrix3.determinant();
+    det != 0.0 && det.is_finite()
+}
+
+/// World bounds of `mesh` placed by `instance`: its box's eight corners transformed.
+fn placed_bounds(mesh: &Blas, instance: &Instance) -> (Vec3, Vec3) {
+    let (lo, hi) = mesh.bounds;
+    (0..8).fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(a, b), k| {
+        let corner = Vec3::new(
+            if k & 1 == 0 { lo.x } else { hi.x },
+            if k & 2 == 0 { lo.y } else { hi.y },
+            if k & 4 == 0 { lo.z } else { hi.z },
+        );
+        let p = instance.to_world.transform_point3(corner);
+        (a.min(p), b.max(p))
+    })
+}
+
+/// The matrix of absolute values of `m`'s entries.
+fn abs(m: Mat3A) -> Mat3A {
+    Mat3A::from_cols(m.x_axis.abs(), m.y_axis.abs(), m.z_axis.abs())
 }
 
 #[cfg(test)]

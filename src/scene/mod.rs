@@ -1,10 +1,12 @@
 //! The immutable scene: triangles in a BVH, materials, textures, lights, cameras, and the
 //! set of effects it contains, which switches the integrator's per-bounce work.
 
+mod blas;
 pub mod camera;
 pub mod edit;
 pub mod environment;
 pub mod geometry;
+pub mod instances;
 pub mod light;
 pub mod material;
 pub mod shading;
@@ -19,8 +21,8 @@ use crate::math::{
 use crate::medium::grid::DensityGrid;
 use camera::Camera;
 use environment::Environment;
-use geometry::{Geometry, Hit, Ray, TriAttrs, TriExtra};
-use glam::{Vec2, Vec3, Vec4, Vec4Swizzles};
+use geometry::{Geometry, Hit, Ray, TriAttrs, TriExtra, Triangles};
+use glam::{Affine3A, Vec2, Vec3, Vec4, Vec4Swizzles};
 use light::{LightRef, LightSampler, PunctualLight};
 use material::{AlphaMode, Material};
 use shading::terminator_offset;
@@ -83,7 +85,7 @@ pub const MAX_COORDINATE: f32 = 1e18;
 /// facet's normal up to rounding.
 const FLAT_COS: f32 = 0.999_998_5;
 
-/// A triangle mesh in world space, as a loader produces it.
+/// A triangle mesh, in world space or placed by `instances`, as a loader produces it.
 #[derive(Clone, Debug, Default)]
 pub struct MeshDesc {
     /// Name for messages.
@@ -106,6 +108,10 @@ pub struct MeshDesc {
     pub material: u32,
     /// KHR_materials_variants: (variant, material) for the variants that change it.
     pub variants: Vec<(u32, u32)>,
+    /// Where the mesh is placed, object to world, when it is placed more than once: it is
+    /// then stored once, in its own space, and traced through a BVH of its placements.
+    /// Empty: the mesh is in world space, placed once.
+    pub instances: Vec<Affine3A>,
 }
 
 /// Everything a loader produces: a plain description the `Scene` is built from.
@@ -226,12 +232,10 @@ impl Scene {
         if materials.is_empty() {
             materials.push(Material::default());
         }
-        let mut positions = Vec::new();
-        let mut attrs = Vec::new();
-        let mut extra = Vec::new();
         let has_extra = meshes.iter().any(|m| m.uvs1.is_some() || m.colors.is_some() || m.tangents.is_some());
-        let (mut dropped_bad, mut dropped_degenerate) = (0usize, 0usize);
-        // Triangles with bad vertices or zero area are dropped: they cannot be hit or sampled.
+        let mut world = Triangles::default();
+        let (mut instanced, mut placements) = (Vec::new(), Vec::new());
+        let mut dropped = Dropped::default();
         for mesh in &meshes {
             let material = mesh.material.min(materials.len() as u32 - 1);
             if materials[material as usize].is_volume()
@@ -240,65 +244,38 @@ impl Scene {
                 let name = &materials[material as usize].name;
                 warnings.push(format!("material \"{name}\" fills mesh \"{}\" with a volume, but {problem}", mesh.name));
             }
-            for tri in mesh.indices.chunks_exact(3) {
-                let idx = [tri[0] as usize, tri[1] as usize, tri[2] as usize];
-                let p = idx.map(|i| mesh.positions.get(i).copied().unwrap_or(Vec3::NAN));
-                if !p.iter().all(|v| v.is_finite() && v.abs().max_element() <= MAX_COORDINATE) {
-                    dropped_bad += 1;
-                    continue;
-                }
-                let cross = (p[1] - p[0]).cross(p[2] - p[0]);
-                let ng = cross.normalize_or_zero();
-                if ng == Vec3::ZERO || !ng.is_finite() {
-                    dropped_degenerate += 1;
-                    continue;
-                }
-                let normals = match &mesh.normals {
-                    Some(n) => idx.map(|i| {
-                        let n = n.get(i).map_or(Vec3::ZERO, |n| n.normalize_or_zero());
-                        // Normals within 0.1 degree of the facet's are snapped to it, so
-                        // that flat triangles are recognised as flat (no terminator lift).
-                        if n == Vec3::ZERO || !n.is_finite() || n.dot(ng) > FLAT_COS { ng } else { n }
-                    }),
-                    None => [ng; 3],
-                };
-                let uvs = match &mesh.uvs {
-                    Some(uv) => idx.map(|i| uv.get(i).copied().filter(|v| v.is_finite()).unwrap_or(Vec2::ZERO)),
-                    None => [Vec2::ZERO; 3],
-                };
-                let b = &mut material_bounds[material as usize];
-                *b = p.iter().fold(*b, |(lo, hi), &v| (lo.min(v), hi.max(v)));
-                positions.push(p);
-                attrs.push(TriAttrs { normals, uvs, ng, material });
-                if has_extra {
-                    let per_vertex = |v: &Option<Vec<Vec4>>, default: Vec4| {
-                        idx.map(|i| {
-                            v.as_ref().and_then(|v| v.get(i)).copied().filter(|v| v.is_finite()).unwrap_or(default)
-                        })
-                    };
-                    let uv1 = match &mesh.uvs1 {
-                        Some(uv) => idx.map(|i| uv.get(i).copied().filter(|v| v.is_finite()).unwrap_or(Vec2::ZERO)),
-                        None => uvs,
-                    };
-                    let colors = per_vertex(&mesh.colors, Vec4::ONE);
-                    let tangents = per_vertex(&mesh.tangents, Vec4::ZERO);
-                    extra.push(TriExtra { uv1, colors, tangents });
-                }
-            }
+            let (lo, hi) = if mesh.instances.is_empty() {
+                add_triangles(mesh, material, has_extra, &mut world, &mut dropped)
+            } else {
+                let mut own = Triangles::default();
+                let (lo, hi) = add_triangles(mesh, material, has_extra, &mut own, &mut dropped);
+                let index = instanced.len() as u32;
+                instanced.push(own);
+                placements.extend(mesh.instances.iter().map(|&t| (index, t)));
+                mesh.instances
+                    .iter()
+                    .map(|t| transformed_box(lo, hi, t))
+                    .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(a, b), (lo, hi)| (a.min(lo), b.max(hi)))
+            };
+            let b = &mut material_bounds[material as usize];
+            *b = (b.0.min(lo), b.1.max(hi));
         }
-        if dropped_bad > 0 {
+        if dropped.bad > 0 {
             warnings.push(format!(
-                "dropped {dropped_bad} triangles with missing, NaN, infinite or out-of-range (beyond 1e18) vertices"
+                "dropped {} triangles with missing, NaN, infinite or out-of-range (beyond 1e18) vertices",
+                dropped.bad
             ));
         }
-        if dropped_degenerate > 0 {
-            warnings.push(format!("dropped {dropped_degenerate} degenerate (zero-area) triangles"));
+        if dropped.degenerate > 0 {
+            warnings.push(format!("dropped {} degenerate (zero-area) triangles", dropped.degenerate));
         }
-        let bounds = positions
-            .iter()
-            .flatten()
-            .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &v| (lo.min(v), hi.max(v)));
-        let bounds = if positions.is_empty() { (Vec3::ZERO, Vec3::ZERO) } else { bounds };
+        let singular = placements.iter().filter(|(_, t)| !geometry::invertible(t)).count();
+        if singular > 0 {
+            warnings.push(format!("dropped {singular} placements whose transform flattens the mesh (zero scale)"));
+        }
+        let bounds =
+            material_bounds.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), b| (lo.min(b.0), hi.max(b.1)));
+        let bounds = if bounds.0.cmple(bounds.1).all() { bounds } else { (Vec3::ZERO, Vec3::ZERO) };
         // Each grid spans the bounds of the meshes whose material holds it.
         for (m, &(lo, hi)) in materials.iter().zip(&material_bounds) {
             if let Some(grid) = m.volume.and_then(|v| v.grid).and_then(|g| grids.get_mut(g as usize))
@@ -307,7 +284,7 @@ impl Scene {
                 grid.fit(lo, hi);
             }
         }
-        let geometry = Arc::new(Geometry::build(positions, attrs, extra));
+        let geometry = Arc::new(Geometry::build_instanced(world, instanced, &placements));
         let mut scene = Self {
             name,
             geometry,
@@ -368,8 +345,7 @@ impl Scene {
         let lamp = |m: &Material| m.is_emissive() && !m.unlit && m.emissive_tex.is_none();
         !self.lights.is_empty()
             || (self.materials.iter().any(lamp)
-                && (0..self.geometry.len() as u32)
-                    .any(|t| lamp(&self.materials[self.geometry.attrs(t).material as usize])))
+                && self.geometry.materials().any(|(_, m)| lamp(&self.materials[m as usize])))
     }
 
     /// Rebuilds the light sampler and the feature set from the materials and lights.
@@ -379,7 +355,7 @@ impl Scene {
         self.light_sampler =
             build_light_sampler(geometry, materials, &self.textures, &self.images, &self.lights, self.bounds, env);
         let mut seen = vec![false; materials.len()];
-        (0..geometry.len() as u32).for_each(|t| seen[geometry.attrs(t).material as usize] = true);
+        geometry.materials().for_each(|(_, m)| seen[m as usize] = true);
         let used: Vec<&Material> = materials.iter().zip(seen).filter(|(_, s)| *s).map(|(m, _)| m).collect();
         self.features = Features {
             emissive: used.iter().any(|m| m.is_emissive()),
@@ -454,9 +430,10 @@ impl Scene {
         let a = self.geometry.attrs(tri);
         let uv0 = a.uvs[0] * b[0] + a.uvs[1] * b[1] + a.uvs[2] * b[2];
         let uv1 = self.geometry.extra(tri).map_or(uv0, |e| e.uv1[0] * b[0] + e.uv1[1] * b[1] + e.uv1[2] * b[2]);
+        let point = p[0] * b[0] + p[1] * b[1] + p[2] * b[2];
         Surface {
-            p: p[0] * b[0] + p[1] * b[1] + p[2] * b[2],
-            p_error: interpolation_error(b, *p),
+            p: point,
+            p_error: interpolation_error(b, p) + self.geometry.placement_error(tri, b, point),
             ng: a.ng,
             ns: a.ng,
             uv: [uv0, uv1],
@@ -522,7 +499,7 @@ impl Scene {
         // Flat triangles (every vertex normal is the facet's) have nothing to lift.
         if terminator && attrs.normals != [attrs.ng; 3] {
             let normals = if front { attrs.normals } else { attrs.normals.map(|n| -n) };
-            let lift = terminator_offset(p, surface.b, self.geometry.positions(surface.tri), &normals);
+            let lift = terminator_offset(p, surface.b, &self.geometry.positions(surface.tri), &normals);
             if lift.dot(ng) > 0.0 {
                 // The sum rounds by at most gamma(1) of its magnitude; lift's own rounding
                 // only changes how far the point is lifted, not the side it ends up on.
@@ -538,6 +515,83 @@ impl Scene {
         let p = self.geometry.positions(tri);
         0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length()
     }
+}
+
+/// Triangles dropped while building: with bad vertices, or of zero area.
+#[derive(Default)]
+struct Dropped {
+    bad: usize,
+    degenerate: usize,
+}
+
+/// Appends `mesh`'s triangles to `out` with `material` (and their optional attributes if
+/// `extra`), dropping those with bad vertices or zero area, which cannot be hit or sampled;
+/// returns the bounds of those kept.
+fn add_triangles(
+    mesh: &MeshDesc,
+    material: u32,
+    extra: bool,
+    out: &mut Triangles,
+    dropped: &mut Dropped,
+) -> (Vec3, Vec3) {
+    let mut bounds = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+    for tri in mesh.indices.chunks_exact(3) {
+        let idx = [tri[0] as usize, tri[1] as usize, tri[2] as usize];
+        let p = idx.map(|i| mesh.positions.get(i).copied().unwrap_or(Vec3::NAN));
+        if !p.iter().all(|v| v.is_finite() && v.abs().max_element() <= MAX_COORDINATE) {
+            dropped.bad += 1;
+            continue;
+        }
+        let cross = (p[1] - p[0]).cross(p[2] - p[0]);
+        let ng = cross.normalize_or_zero();
+        if ng == Vec3::ZERO || !ng.is_finite() {
+            dropped.degenerate += 1;
+            continue;
+        }
+        let normals = match &mesh.normals {
+            Some(n) => idx.map(|i| {
+                let n = n.get(i).map_or(Vec3::ZERO, |n| n.normalize_or_zero());
+                // Normals within 0.1 degree of the facet's are snapped to it, so
+                // that flat triangles are recognised as flat (no terminator lift).
+                if n == Vec3::ZERO || !n.is_finite() || n.dot(ng) > FLAT_COS { ng } else { n }
+            }),
+            None => [ng; 3],
+        };
+        let uvs = match &mesh.uvs {
+            Some(uv) => idx.map(|i| uv.get(i).copied().filter(|v| v.is_finite()).unwrap_or(Vec2::ZERO)),
+            None => [Vec2::ZERO; 3],
+        };
+        bounds = p.iter().fold(bounds, |(lo, hi), &v| (lo.min(v), hi.max(v)));
+        out.positions.push(p);
+        out.attrs.push(TriAttrs { normals, uvs, ng, material });
+        if extra {
+            let per_vertex = |v: &Option<Vec<Vec4>>, default: Vec4| {
+                idx.map(|i| v.as_ref().and_then(|v| v.get(i)).copied().filter(|v| v.is_finite()).unwrap_or(default))
+            };
+            let uv1 = match &mesh.uvs1 {
+                Some(uv) => idx.map(|i| uv.get(i).copied().filter(|v| v.is_finite()).unwrap_or(Vec2::ZERO)),
+                None => uvs,
+            };
+            let colors = per_vertex(&mesh.colors, Vec4::ONE);
+            let tangents = per_vertex(&mesh.tangents, Vec4::ZERO);
+            out.extra.push(TriExtra { uv1, colors, tangents });
+        }
+    }
+    bounds
+}
+
+/// The world bounds of the box [lo, hi] placed by `t` (its corners transformed); empty
+/// for an empty box or a transform that flattens it.
+fn transformed_box(lo: Vec3, hi: Vec3, t: &Affine3A) -> (Vec3, Vec3) {
+    let empty = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+    if !lo.cmple(hi).all() || !geometry::invertible(t) {
+        return empty;
+    }
+    (0..8).fold(empty, |(a, b), k| {
+        let corner = Vec3::select(glam::BVec3::new(k & 1 != 0, k & 2 != 0, k & 4 != 0), hi, lo);
+        let p = t.transform_point3(corner);
+        (a.min(p), b.max(p))
+    })
 }
 
 /// The shading normal `n` perturbed by tangent-space normal `m` (glTF: +x along the
@@ -618,8 +672,8 @@ fn build_light_sampler(
         })
         .collect();
     let mut candidates = Vec::new();
-    for t in 0..geometry.len() as u32 {
-        let material = geometry.attrs(t).material as usize;
+    for (t, material) in geometry.materials() {
+        let material = material as usize;
         let le = mean_emission[material];
         if le > 0.0 {
             let p = geometry.positions(t);

@@ -16,6 +16,7 @@ mod ui;
 use crate::config::ViewFile;
 use crate::open::{OpenOptions, open};
 use crate::render::Snapshot;
+use crate::scene::instances::Instancing;
 use gpu::Gpu;
 use state::ViewerState;
 use std::path::{Path, PathBuf};
@@ -52,6 +53,8 @@ pub struct Launch {
     pub keep_dark: bool,
     /// The KHR_materials_variants variant to open the scene in.
     pub variant: Option<String>,
+    /// Which meshes placed many times stay instanced.
+    pub instancing: Instancing,
     /// Render at the view's size instead of following the window.
     pub fixed_size: bool,
     /// Worker threads (None: one per core).
@@ -76,6 +79,7 @@ pub fn run(launch: Launch) -> Result<(), String> {
         fixed_size,
         keep_dark,
         variant,
+        instancing,
         threads,
         screenshot,
         denoise,
@@ -94,6 +98,7 @@ pub fn run(launch: Launch) -> Result<(), String> {
             environment: view.environment.clone(),
             keep_dark,
             variant: variant.clone(),
+            instancing,
             ..OpenOptions::default()
         },
         &mut |_| {},
