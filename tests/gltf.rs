@@ -7,7 +7,7 @@ use base64::Engine;
 use glam::Vec3;
 use lucent::integrator::Settings;
 use lucent::loader::{builtin, gltf};
-use lucent::scene::{Scene, SceneDesc, texture::Texels};
+use lucent::scene::{Scene, SceneDesc, instances::Instancing, texture::Texels};
 use serde_json::{Value, json};
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -435,8 +435,43 @@ fn instanced_triangle(edit: impl Fn(&mut Value)) -> Vec<u8> {
 }
 
 #[test]
+fn instanced_copies_render_as_their_flattened_copies() {
+    // The Cornell box with its blocks placed again: the short one mirrored across the box,
+    // the tall one squashed, stretched and turned.
+    let text = std::fs::read_to_string(common::cornell_box_file()).unwrap();
+    let mut doc: Value = serde_json::from_str(&text).unwrap();
+    let short = doc["nodes"].as_array().unwrap().iter().position(|n| n["name"] == "short_block").unwrap();
+    let tall = doc["nodes"].as_array().unwrap().iter().position(|n| n["name"] == "tall_block").unwrap();
+    let nodes = doc["nodes"].as_array_mut().unwrap();
+    nodes.push(json!({"mesh": nodes[short]["mesh"], "scale": [-1.0, 1.0, 1.0], "translation": [0.556, 0.0, 0.0]}));
+    nodes.push(json!({
+        "mesh": nodes[tall]["mesh"],
+        "scale": [0.25, 0.3, 1.2],
+        "rotation": [0.0, 0.3826834, 0.0, 0.9238795],
+        "translation": [-0.213, 0.0, -0.113]
+    }));
+    let n = nodes.len();
+    doc["scenes"][0]["nodes"].as_array_mut().unwrap().extend([json!(n - 2), json!(n - 1)]);
+    let path = temp("cornell-instanced.gltf", &serde_json::to_vec(&doc).unwrap());
+    let settings = Settings { width: 64, height: 64, target_spp: Some(64), seed: 3, ..Settings::default() };
+    let render = |policy: Instancing| {
+        let mut desc = gltf::load(&path).unwrap();
+        desc.apply_instancing(policy, u64::MAX).unwrap();
+        let scene = Arc::new(Scene::build(desc));
+        let placements = scene.geometry.instance_count();
+        (common::render(&scene, scene.default_camera(1.0), settings, None), placements)
+    };
+    let ((instanced, placements), (flattened, none)) = (render(Instancing::Always), render(Instancing::Never));
+    assert_eq!((placements, none), (4, 0));
+    let z = common::sidak_z(1e-3, common::blocks(&flattened).len() * 3);
+    common::assert_blocks_agree(&instanced, &flattened, z, "instanced against flattened");
+}
+
+#[test]
 fn gpu_instancing_places_the_mesh_once_per_instance() {
-    let desc = gltf::load(&temp("instanced.gltf", &instanced_triangle(|_| ()))).unwrap_or_else(|e| panic!("{e}"));
+    let mut desc = gltf::load(&temp("instanced.gltf", &instanced_triangle(|_| ()))).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!((triangles(&desc), desc.meshes[0].instances.len()), (1, 3), "stored once, placed thrice");
+    desc.apply_instancing(Instancing::Never, 3).unwrap();
     assert_eq!(triangles(&desc), 3, "one triangle per instance");
     let mut got: Vec<Vec3> =
         desc.meshes.iter().flat_map(|m| m.indices.iter().map(|&i| m.positions[i as usize])).collect();

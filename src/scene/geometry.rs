@@ -412,6 +412,41 @@ mod tests {
     }
 
     #[test]
+    fn placed_triangles_keep_their_front_normals_and_tangent_frames() {
+        use glam::Quat;
+        let p = [Vec3::new(0.2, 0.1, 0.0), Vec3::new(1.0, 0.3, 0.4), Vec3::new(0.1, 0.9, 0.2)];
+        let ng = (p[1] - p[0]).cross(p[2] - p[0]).normalize();
+        let attrs = TriAttrs { normals: [ng; 3], uvs: [Vec2::ZERO; 3], ng, material: 0 };
+        let extra = TriExtra {
+            uv1: [Vec2::ZERO; 3],
+            colors: [Vec4::ONE; 3],
+            tangents: [(p[1] - p[0]).normalize().extend(1.0); 3],
+        };
+        let mesh = Triangles { positions: vec![p], attrs: vec![attrs], extra: vec![extra] };
+        let turn = Quat::from_rotation_y(0.7);
+        let placements = [
+            (0, Affine3A::from_scale_rotation_translation(Vec3::new(0.2, 3.0, 1.0), turn, Vec3::X)),
+            (0, Affine3A::from_scale_rotation_translation(Vec3::new(-1.0, 0.5, 2.0), turn, -Vec3::X)),
+        ];
+        let g = Geometry::build_instanced(Triangles::default(), vec![mesh], &placements);
+        assert_eq!((g.len(), g.unique_len(), g.instance_count()), (2, 1, 2));
+        for tri in 0..2 {
+            let (q, a) = (g.positions(tri), g.attrs(tri));
+            let cross = (q[1] - q[0]).cross(q[2] - q[0]).normalize();
+            let t = placements.iter().find(|(_, t)| t.transform_point3(p[0]).abs_diff_eq(q[0], 1e-5)).unwrap().1;
+            let mirrored = t.matrix3.determinant() < 0.0;
+            // The front face stays on the side of the object's normal, and is perpendicular to
+            // the placed triangle: counter-clockwise, or clockwise under a mirroring placement.
+            let want = if mirrored { -cross } else { cross };
+            assert!(a.ng.abs_diff_eq(want, 1e-5), "{tri}: {} against {want}", a.ng);
+            assert!(a.normals[0].abs_diff_eq(want, 1e-5));
+            let tangent = g.extra(tri).unwrap().tangents[0];
+            assert_eq!(tangent.w, if mirrored { -1.0 } else { 1.0 });
+            assert!(tangent.truncate().dot(a.ng).abs() < 1e-5, "the tangent stays in the plane");
+        }
+    }
+
+    #[test]
     fn axis_aligned_rays_with_negative_zero_components_hit() {
         let g = quad();
         let d = Vec3::new(-0.0, -0.0, -1.0);
