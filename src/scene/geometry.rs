@@ -195,51 +195,78 @@ impl Geometry {
         self.build_time
     }
 
-    /// The placement holding global triangle `tri` and the triangle's index in its mesh, or
-    /// None for a triangle of the world.
-    #[inline]
-    fn placement(&self, tri: u32) -> Option<(&Instance, u32)> {
-        if (tri as usize) < self.world.len() {
-            return None;
-        }
+    /// The placement holding global triangle `tri` (past the world's) and the triangle's
+    /// index in its mesh.
+    fn placement(&self, tri: u32) -> (&Instance, u32) {
         let i = self.instances.partition_point(|i| i.first <= tri) - 1;
         let instance = &self.instances[i];
-        Some((instance, tri - instance.first))
+        (instance, tri - instance.first)
     }
 
-    /// World-space vertex positions of triangle `tri`.
-    #[inline]
+    /// Whether global triangle `tri` is one of the world's (not reached through a placement).
+    #[inline(always)]
+    fn in_world(&self, tri: u32) -> bool {
+        (tri as usize) < self.world.len()
+    }
+
+    /// `f` of triangle `tri`'s world-space positions, attributes and optional attributes,
+    /// read in place for the world's triangles (no copies on the common path) and made
+    /// out of line for placed ones.
+    #[inline(always)]
+    pub fn with_triangle<R>(&self, tri: u32, f: impl FnOnce(&[Vec3; 3], &TriAttrs, Option<&TriExtra>) -> R) -> R {
+        let placed;
+        let (p, a, e) = if self.in_world(tri) {
+            (self.world.positions(tri), self.world.attrs(tri), self.world.extra(tri))
+        } else {
+            placed = (self.placed_positions(tri), self.placed_attrs(tri), self.placed_extra(tri));
+            (&placed.0, &placed.1, placed.2.as_ref())
+        };
+        // One call site, so that `f` is inlined.
+        f(p, a, e)
+    }
+
+    /// World-space vertex positions of triangle `tri`. The world's triangles are read in
+    /// line; placed ones are transformed out of line, so that scenes without instances
+    /// pay one comparison.
+    #[inline(always)]
     pub fn positions(&self, tri: u32) -> [Vec3; 3] {
-        match self.placement(tri) {
-            None => *self.world.positions(tri),
-            Some((i, t)) => self.meshes[i.mesh as usize].positions(t).map(|p| i.to_world.transform_point3(p)),
-        }
+        if self.in_world(tri) { *self.world.positions(tri) } else { self.placed_positions(tri) }
+    }
+
+    #[inline(never)]
+    fn placed_positions(&self, tri: u32) -> [Vec3; 3] {
+        let (i, t) = self.placement(tri);
+        self.meshes[i.mesh as usize].positions(t).map(|p| i.to_world.transform_point3(p))
     }
 
     /// Shading attributes of triangle `tri`, with world-space normals.
-    #[inline]
+    #[inline(always)]
     pub fn attrs(&self, tri: u32) -> TriAttrs {
-        match self.placement(tri) {
-            None => *self.world.attrs(tri),
-            Some((i, t)) => {
-                let a = self.meshes[i.mesh as usize].attrs(t);
-                let n = |v: Vec3| (i.normals * v).normalize_or_zero();
-                TriAttrs { normals: a.normals.map(n), ng: n(a.ng), ..*a }
-            }
-        }
+        if self.in_world(tri) { *self.world.attrs(tri) } else { self.placed_attrs(tri) }
+    }
+
+    #[inline(never)]
+    fn placed_attrs(&self, tri: u32) -> TriAttrs {
+        let (i, t) = self.placement(tri);
+        let a = self.meshes[i.mesh as usize].attrs(t);
+        let n = |v: Vec3| (i.normals * v).normalize_or_zero();
+        TriAttrs { normals: a.normals.map(n), ng: n(a.ng), ..*a }
     }
 
     /// The optional attributes of triangle `tri` (world-space tangents), if its mesh has any.
-    #[inline]
+    #[inline(always)]
     pub fn extra(&self, tri: u32) -> Option<TriExtra> {
-        match self.placement(tri) {
-            None => self.world.extra(tri).copied(),
-            Some((i, t)) => self.meshes[i.mesh as usize].extra(t).map(|e| {
-                let tangent =
-                    |v: Vec4| (i.to_world.transform_vector3(v.xyz())).normalize_or_zero().extend(v.w * i.handedness);
-                TriExtra { tangents: e.tangents.map(tangent), ..*e }
-            }),
-        }
+        if self.in_world(tri) { self.world.extra(tri).copied() } else { self.placed_extra(tri) }
+    }
+
+    #[inline(never)]
+    fn placed_extra(&self, tri: u32) -> Option<TriExtra> {
+        let (i, t) = self.placement(tri);
+        self.meshes[i.mesh as usize].extra(t).map(|e| {
+            let tangent =
+                |v: Vec4| (i.to_world.transform_vector3(v.xyz())).normalize_or_zero().extend(v.w * i.handedness);
+            TriExtra { tangents: e.tangents.map(tangent), ..*e }
+        })
     }
 
     /// Every placed triangle's global index and material, in index order, without the
@@ -256,8 +283,14 @@ impl Geometry {
     /// vertices to world space, and of transforming a ray's origin at `p` back to the mesh's
     /// space, carried to world space (pbrt-v4 section 6.8.6, each product and sum rounding
     /// by at most gamma(1) of its magnitude).
+    #[inline(always)]
     pub fn placement_error(&self, tri: u32, b: [f32; 3], p: Vec3) -> Vec3 {
-        let Some((i, t)) = self.placement(tri) else { return Vec3::ZERO };
+        if self.in_world(tri) { Vec3::ZERO } else { self.placed_error(tri, b, p) }
+    }
+
+    #[inline(never)]
+    fn placed_error(&self, tri: u32, b: [f32; 3], p: Vec3) -> Vec3 {
+        let (i, t) = self.placement(tri);
         let q = self.meshes[i.mesh as usize].positions(t);
         let object = (b[0] * q[0]).abs() + (b[1] * q[1]).abs() + (b[2] * q[2]).abs();
         let (m, m_inv) = (abs(i.to_world.matrix3), abs(i.to_object.matrix3));
@@ -288,17 +321,24 @@ impl Geometry {
     }
 
     /// `intersect_with`, ignoring the hits `accept` (global triangle, barycentrics) turns down.
-    #[inline]
+    #[inline(always)]
     pub fn intersect_filtered(
         &self,
         ray: &Ray,
         watertight: bool,
         accept: impl Fn(u32, [f32; 3]) -> bool,
     ) -> Option<Hit> {
-        let mut closest = self.world.intersect_filtered(ray, watertight, &accept);
         if self.instances.is_empty() {
-            return closest;
+            self.world.intersect_filtered(ray, watertight, accept)
+        } else {
+            self.intersect_placed(ray, watertight, accept)
         }
+    }
+
+    /// `intersect_filtered` through the world's BVH and then the placements'.
+    #[inline(never)]
+    fn intersect_placed(&self, ray: &Ray, watertight: bool, accept: impl Fn(u32, [f32; 3]) -> bool) -> Option<Hit> {
+        let mut closest = self.world.intersect_filtered(ray, watertight, &accept);
         let mut bound = closest.map_or(ray.tmax, |h| h.t);
         self.placements_along(ray, bound, |i, node_tmax| {
             let local = i.local_ray(ray, bound);
@@ -315,13 +355,20 @@ impl Geometry {
     }
 
     /// `occluded_with`, ignoring the hits `accept` turns down.
-    #[inline]
+    #[inline(always)]
     pub fn occluded_filtered(&self, ray: &Ray, watertight: bool, accept: impl Fn(u32, [f32; 3]) -> bool) -> bool {
+        if self.instances.is_empty() {
+            self.world.occluded_filtered(ray, watertight, accept)
+        } else {
+            self.occluded_placed(ray, watertight, accept)
+        }
+    }
+
+    /// `occluded_filtered` through the world's BVH and then the placements'.
+    #[inline(never)]
+    fn occluded_placed(&self, ray: &Ray, watertight: bool, accept: impl Fn(u32, [f32; 3]) -> bool) -> bool {
         if self.world.occluded_filtered(ray, watertight, &accept) {
             return true;
-        }
-        if self.instances.is_empty() {
-            return false;
         }
         let mut blocked = false;
         self.placements_along(ray, ray.tmax, |i, _| {

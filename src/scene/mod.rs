@@ -399,25 +399,25 @@ impl Scene {
 
     /// Surface data at a hit, with the material's normal map applied to the shading normal.
     pub fn surface(&self, hit: &Hit) -> Surface {
-        let a = self.geometry.attrs(hit.tri);
         let b = hit.b;
         let lerp = |v: [Vec4; 3]| v[0] * b[0] + v[1] * b[1] + v[2] * b[2];
-        let mut surface = self.light_point(hit.tri, b);
-        let ns = (a.normals[0] * b[0] + a.normals[1] * b[1] + a.normals[2] * b[2]).normalize_or_zero();
-        if ns != Vec3::ZERO {
-            surface.ns = ns;
-        }
-        let extra = self.geometry.extra(hit.tri);
-        if let Some(e) = extra {
-            surface.color = lerp(e.colors);
-        }
-        if let (Some(e), Some(map)) = (extra, self.materials[a.material as usize].normal_tex) {
-            let tangent = lerp(e.tangents);
-            let m = map.sample(&self.textures, &self.images, &surface.uv, ColorSpace::Linear).xyz() * 2.0 - 1.0;
-            let scale = self.materials[a.material as usize].normal_scale;
-            surface.ns = normal_mapped(surface.ns, tangent, m * Vec3::new(scale, scale, 1.0));
-        }
-        surface
+        self.geometry.with_triangle(hit.tri, |p, a, extra| {
+            let mut surface = self.point_on(hit.tri, b, p, a, extra);
+            let ns = (a.normals[0] * b[0] + a.normals[1] * b[1] + a.normals[2] * b[2]).normalize_or_zero();
+            if ns != Vec3::ZERO {
+                surface.ns = ns;
+            }
+            if let Some(e) = extra {
+                surface.color = lerp(e.colors);
+            }
+            if let (Some(e), Some(map)) = (extra, self.materials[a.material as usize].normal_tex) {
+                let tangent = lerp(e.tangents);
+                let m = map.sample(&self.textures, &self.images, &surface.uv, ColorSpace::Linear).xyz() * 2.0 - 1.0;
+                let scale = self.materials[a.material as usize].normal_scale;
+                surface.ns = normal_mapped(surface.ns, tangent, m * Vec3::new(scale, scale, 1.0));
+            }
+            surface
+        })
     }
 
     /// The point of triangle `tri` at barycentrics `b` as light sampling needs it, and
@@ -426,14 +426,18 @@ impl Scene {
     /// and the vertex colour white: no normal map is sampled, since an emitter's sample reads
     /// neither (2.5% of a Cornell render went to the full `surface` of light points).
     pub fn light_point(&self, tri: u32, b: [f32; 3]) -> Surface {
-        let p = self.geometry.positions(tri);
-        let a = self.geometry.attrs(tri);
+        self.geometry.with_triangle(tri, |p, a, extra| self.point_on(tri, b, p, a, extra))
+    }
+
+    /// `light_point` given the triangle's positions and attributes.
+    #[inline(always)]
+    fn point_on(&self, tri: u32, b: [f32; 3], p: &[Vec3; 3], a: &TriAttrs, extra: Option<&TriExtra>) -> Surface {
         let uv0 = a.uvs[0] * b[0] + a.uvs[1] * b[1] + a.uvs[2] * b[2];
-        let uv1 = self.geometry.extra(tri).map_or(uv0, |e| e.uv1[0] * b[0] + e.uv1[1] * b[1] + e.uv1[2] * b[2]);
+        let uv1 = extra.map_or(uv0, |e| e.uv1[0] * b[0] + e.uv1[1] * b[1] + e.uv1[2] * b[2]);
         let point = p[0] * b[0] + p[1] * b[1] + p[2] * b[2];
         Surface {
             p: point,
-            p_error: interpolation_error(b, p) + self.geometry.placement_error(tri, b, point),
+            p_error: interpolation_error(b, *p) + self.geometry.placement_error(tri, b, point),
             ng: a.ng,
             ns: a.ng,
             uv: [uv0, uv1],
@@ -466,9 +470,9 @@ impl Scene {
     /// Whether a candidate hit counts. BLEND alpha is a coin flip hashed from the ray and the
     /// triangle, so the same ray always gets the same answer (determinism).
     fn blocks(&self, ray: &Ray, tri: u32, b: [f32; 3], camera: bool) -> bool {
-        let a = self.geometry.attrs(tri);
-        let m = &self.materials[a.material as usize];
-        if camera && !m.double_sided && !m.is_volume() && ray.d.dot(a.ng) > 0.0 {
+        let (material, ng) = self.geometry.with_triangle(tri, |_, a, _| (a.material, a.ng));
+        let m = &self.materials[material as usize];
+        if camera && !m.double_sided && !m.is_volume() && ray.d.dot(ng) > 0.0 {
             return false;
         }
         if m.alpha_mode == AlphaMode::Opaque {
@@ -495,25 +499,28 @@ impl Scene {
     pub fn reflection_origin(&self, surface: &Surface, front: bool, terminator: bool, offset: bool) -> Vec3 {
         let ng = if front { surface.ng } else { -surface.ng };
         let (mut p, mut error) = (surface.p, surface.p_error);
-        let attrs = self.geometry.attrs(surface.tri);
         // Flat triangles (every vertex normal is the facet's) have nothing to lift.
-        if terminator && attrs.normals != [attrs.ng; 3] {
-            let normals = if front { attrs.normals } else { attrs.normals.map(|n| -n) };
-            let lift = terminator_offset(p, surface.b, &self.geometry.positions(surface.tri), &normals);
-            if lift.dot(ng) > 0.0 {
-                // The sum rounds by at most gamma(1) of its magnitude; lift's own rounding
-                // only changes how far the point is lifted, not the side it ends up on.
-                error += gamma(2) * (p.abs() + lift.abs());
-                p += lift;
-            }
+        let lift = |positions: &[Vec3; 3], attrs: &TriAttrs| {
+            (attrs.normals != [attrs.ng; 3]).then(|| {
+                let normals = if front { attrs.normals } else { attrs.normals.map(|n| -n) };
+                terminator_offset(p, surface.b, positions, &normals)
+            })
+        };
+        if terminator
+            && let Some(lift) = self.geometry.with_triangle(surface.tri, |positions, attrs, _| lift(positions, attrs))
+            && lift.dot(ng) > 0.0
+        {
+            // The sum rounds by at most gamma(1) of its magnitude; lift's own rounding
+            // only changes how far the point is lifted, not the side it ends up on.
+            error += gamma(2) * (p.abs() + lift.abs());
+            p += lift;
         }
         if offset { offset_ray_origin(p, error, ng, ng) } else { p }
     }
 
     /// Area of triangle `tri` (BVH order).
     pub fn triangle_area(&self, tri: u32) -> f32 {
-        let p = self.geometry.positions(tri);
-        0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length()
+        self.geometry.with_triangle(tri, |p, _, _| 0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length())
     }
 }
 
