@@ -218,11 +218,19 @@ impl Geometry {
         let (p, a, e) = if self.in_world(tri) {
             (self.world.positions(tri), self.world.attrs(tri), self.world.extra(tri))
         } else {
-            placed = (self.placed_positions(tri), self.placed_attrs(tri), self.placed_extra(tri));
+            placed = self.placed_triangle(tri);
             (&placed.0, &placed.1, placed.2.as_ref())
         };
         // One call site, so that `f` is inlined.
         f(p, a, e)
+    }
+
+    /// A placed triangle's world-space positions, attributes and optional attributes.
+    #[inline(never)]
+    fn placed_triangle(&self, tri: u32) -> ([Vec3; 3], TriAttrs, Option<TriExtra>) {
+        let (i, t) = self.placement(tri);
+        let mesh = &self.meshes[i.mesh as usize];
+        (i.positions(mesh, t), i.attrs(mesh, t), i.extra(mesh, t))
     }
 
     /// World-space vertex positions of triangle `tri`. The world's triangles are read in
@@ -236,7 +244,7 @@ impl Geometry {
     #[inline(never)]
     fn placed_positions(&self, tri: u32) -> [Vec3; 3] {
         let (i, t) = self.placement(tri);
-        self.meshes[i.mesh as usize].positions(t).map(|p| i.to_world.transform_point3(p))
+        i.positions(&self.meshes[i.mesh as usize], t)
     }
 
     /// Shading attributes of triangle `tri`, with world-space normals.
@@ -248,9 +256,7 @@ impl Geometry {
     #[inline(never)]
     fn placed_attrs(&self, tri: u32) -> TriAttrs {
         let (i, t) = self.placement(tri);
-        let a = self.meshes[i.mesh as usize].attrs(t);
-        let n = |v: Vec3| (i.normals * v).normalize_or_zero();
-        TriAttrs { normals: a.normals.map(n), ng: n(a.ng), ..*a }
+        i.attrs(&self.meshes[i.mesh as usize], t)
     }
 
     /// The optional attributes of triangle `tri` (world-space tangents), if its mesh has any.
@@ -262,11 +268,7 @@ impl Geometry {
     #[inline(never)]
     fn placed_extra(&self, tri: u32) -> Option<TriExtra> {
         let (i, t) = self.placement(tri);
-        self.meshes[i.mesh as usize].extra(t).map(|e| {
-            let tangent =
-                |v: Vec4| (i.to_world.transform_vector3(v.xyz())).normalize_or_zero().extend(v.w * i.handedness);
-            TriExtra { tangents: e.tangents.map(tangent), ..*e }
-        })
+        i.extra(&self.meshes[i.mesh as usize], t)
     }
 
     /// Every placed triangle's global index and material, in index order, without the
@@ -400,6 +402,27 @@ impl Geometry {
 }
 
 impl Instance {
+    /// World-space positions of triangle `t` of `mesh`, which this instance places.
+    fn positions(&self, mesh: &Blas, t: u32) -> [Vec3; 3] {
+        mesh.positions(t).map(|p| self.to_world.transform_point3(p))
+    }
+
+    /// Attributes of triangle `t` of `mesh`, with world-space normals.
+    fn attrs(&self, mesh: &Blas, t: u32) -> TriAttrs {
+        let a = mesh.attrs(t);
+        let n = |v: Vec3| (self.normals * v).normalize_or_zero();
+        TriAttrs { normals: a.normals.map(n), ng: n(a.ng), ..*a }
+    }
+
+    /// Optional attributes of triangle `t` of `mesh`, with world-space tangents.
+    fn extra(&self, mesh: &Blas, t: u32) -> Option<TriExtra> {
+        mesh.extra(t).map(|e| {
+            let tangent =
+                |v: Vec4| self.to_world.transform_vector3(v.xyz()).normalize_or_zero().extend(v.w * self.handedness);
+            TriExtra { tangents: e.tangents.map(tangent), ..*e }
+        })
+    }
+
     /// The ray in the mesh's space, with the same parameter t (its direction is not
     /// renormalised), up to `tmax`.
     fn local_ray(&self, ray: &Ray, tmax: f32) -> Ray {
