@@ -1,6 +1,7 @@
 //! glTF 2.0 loading (.gltf with external or embedded buffers, .glb) with the gltf crate:
-//! node transforms flattened into world-space meshes, materials, textures, punctual lights
-//! and cameras. Anything not supported yet is reported once as a warning, never dropped silently.
+//! node transforms flattened into world-space meshes (a primitive placed more than once is
+//! kept in its own space with its placements), materials, textures, punctual lights and
+//! cameras. Anything not supported yet is reported once as a warning, never dropped silently.
 //! Transforms are composed in f64 and everything is stored relative to the centre of the
 //! scene's bounds, so a model placed far from the origin keeps its f32 precision.
 //!

@@ -119,7 +119,7 @@ pub struct MeshDesc {
 pub struct SceneDesc {
     /// Name shown to the user (file stem).
     pub name: String,
-    /// Meshes flattened to world space.
+    /// Meshes in world space, or in their own space with their placements.
     pub meshes: Vec<MeshDesc>,
     /// Materials, indexed by `MeshDesc::material`.
     pub materials: Vec<Material>,
