@@ -294,13 +294,13 @@ fn required_extensions_are_decided_by_lucents_own_list() {
     };
     let err = load("unquantized.gltf", json!({})).unwrap_err();
     assert!(err.contains("accessor 0 is Vec3 of I8, which POSITION cannot be"), "{err}");
-    let anisotropy = json!({
+    let glossiness = json!({
         "extensionsUsed": ["KHR_mesh_quantization", "KHR_texture_basisu"],
-        "extensionsRequired": ["KHR_mesh_quantization", "KHR_materials_anisotropy"]
+        "extensionsRequired": ["KHR_mesh_quantization", "KHR_materials_pbrSpecularGlossiness"]
     });
-    let err = load("anisotropy.gltf", anisotropy).unwrap_err();
+    let err = load("glossiness.gltf", glossiness).unwrap_err();
     assert!(
-        err.ends_with("requires the glTF extension KHR_materials_anisotropy, which Lucent does not support"),
+        err.ends_with("requires the glTF extension KHR_materials_pbrSpecularGlossiness, which Lucent does not support"),
         "{err}"
     );
     // gltf-json's own list leaves out extensions Lucent renders, such as KHR_materials_volume.

@@ -46,8 +46,13 @@ pub struct MetalRough {
     pub base: Spectrum,
     /// Metalness in [0, 1].
     pub metallic: f32,
-    /// GGX alpha = roughness^2 (below `SMOOTH_ALPHA`: a delta lobe).
+    /// GGX alpha = roughness^2 (below `SMOOTH_ALPHA`: a delta lobe); with anisotropy, the
+    /// width across the anisotropy direction (local y).
     pub alpha: f32,
+    /// KHR_materials_anisotropy strength s in [0, 1]: along local x, the anisotropy
+    /// direction, the base's GGX lobes (metal, dielectric specular, interface) have width
+    /// mix(alpha, 1, s^2). The caller aligns the local frame's x with that direction.
+    pub anisotropy: f32,
     /// Dielectric F0: ((ior - 1) / (ior + 1))^2 x specularColor, clamped to 1.
     pub dielectric_f0: Spectrum,
     /// KHR_materials_specular specularFactor: weight of the dielectric layer.
@@ -81,6 +86,7 @@ impl Default for MetalRough {
             base: Spectrum::ONE,
             metallic: 0.0,
             alpha: 1.0,
+            anisotropy: 0.0,
             dielectric_f0: Spectrum::splat(CLEARCOAT_F0),
             specular: 1.0,
             specular_tint: Spectrum::ONE,
@@ -140,17 +146,27 @@ struct Deltas {
 }
 
 impl MetalRough {
+    /// Width of the base's lobes along the anisotropy direction (local x): alpha without
+    /// anisotropy.
+    fn alpha_x(&self) -> f32 {
+        self.alpha + (1.0 - self.alpha) * (self.anisotropy * self.anisotropy)
+    }
+
     fn ggx(&self) -> Ggx {
-        Ggx { alpha: self.alpha }
+        Ggx { alpha_x: self.alpha_x(), alpha_y: self.alpha }
     }
 
+    /// Roughness of the energy-compensation tables, which are isotropic: an anisotropic
+    /// lobe reads them at the roughness of the isotropic lobe with the same
+    /// alpha_x alpha_y (the same D(n) at normal incidence), an approximation that is
+    /// exact at strength 0 and whose error grows with the aspect ratio alpha_x / alpha_y.
     fn roughness(&self) -> f32 {
-        self.alpha.sqrt()
+        if self.anisotropy == 0.0 { self.alpha.sqrt() } else { (self.alpha_x() * self.alpha).sqrt().sqrt() }
     }
 
-    /// Whether the base's GGX lobes are deltas.
+    /// Whether the base's GGX lobes are deltas (narrow in both directions).
     fn smooth(&self) -> bool {
-        is_smooth(self.alpha)
+        is_smooth(self.alpha_x())
     }
 
     /// Whether the interface's lobes are deltas: it is smooth, or index-matched (between
@@ -175,7 +191,7 @@ impl MetalRough {
     /// vector would be undefined there.
     fn interface(&self) -> Interface {
         let thin = self.thin || (self.eta - 1.0).abs() < 1e-3;
-        Interface { alpha: self.alpha, eta: self.eta, thin, specular: self.specular }
+        Interface { ggx: self.ggx(), eta: self.eta, thin, specular: self.specular }
     }
 
     fn sheen_lobe(&self) -> Sheen {
@@ -373,7 +389,7 @@ impl MetalRough {
         let mut pdf =
             interface_pdf + p.cosine * warp::cos_hemisphere_pdf(wi.z) + p.specular * ggx.reflection_pdf(wo, d);
         if self.clearcoat > 0.0 && !self.smooth_coat() {
-            let coat = Ggx { alpha: self.clearcoat_alpha };
+            let coat = Ggx::isotropic(self.clearcoat_alpha);
             let dc = coat.d(h);
             let fresnel = CLEARCOAT_F0 + (1.0 - CLEARCOAT_F0) * schlick_weight(wo.dot(h));
             f += Spectrum::splat(self.clearcoat * fresnel * dc * coat.g2(wo, wi) / (4.0 * wo.z));
@@ -513,7 +529,7 @@ impl MetalRough {
         } else if x < p_interface + p_specular {
             (above(reflect(wo, self.ggx().sample_visible_normal(wo, u)))?, true)
         } else if x < p_interface + p_specular + p_coat {
-            (above(reflect(wo, Ggx { alpha: self.clearcoat_alpha }.sample_visible_normal(wo, u)))?, true)
+            (above(reflect(wo, Ggx::isotropic(self.clearcoat_alpha).sample_visible_normal(wo, u)))?, true)
         } else if x < p_interface + p_specular + p_coat + p.diffuse_transmission {
             let w = warp::cos_hemisphere(u);
             ((w.z > 0.0).then_some(Vec3::new(w.x, w.y, -w.z))?, false)

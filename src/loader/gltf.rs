@@ -39,6 +39,7 @@ const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_clearcoat",
     "KHR_materials_diffuse_transmission",
     "KHR_materials_sheen",
+    "KHR_materials_anisotropy",
     "KHR_texture_transform",
     "KHR_lights_punctual",
     "KHR_xmp",
@@ -350,12 +351,12 @@ fn primitive_shape(
         check_attribute_type(&Semantic::Weights(u32::MAX), i, quantized)?;
     }
     let Some(positions) = prim.get(&Semantic::Positions) else { return Ok(None) };
-    let normal_mapped = prim.material().normal_texture().is_some();
+    let tangent_space = needs_tangents(&prim.material());
     let normals = prim.get(&Semantic::Normals);
     let uvs = prim.get(&Semantic::TexCoords(0));
     let uvs1 = prim.get(&Semantic::TexCoords(1));
     let colors = prim.get(&Semantic::Colors(0));
-    let tangents = prim.get(&Semantic::Tangents).filter(|_| normal_mapped);
+    let tangents = prim.get(&Semantic::Tangents).filter(|_| tangent_space);
     let read: Vec<&gltf::Accessor> =
         [Some(&positions), normals.as_ref(), uvs.as_ref(), uvs1.as_ref(), colors.as_ref(), tangents.as_ref()]
             .into_iter()
@@ -381,7 +382,7 @@ fn primitive_shape(
     }
     let index_count = indices.as_ref().map_or(vertices, |i| i.count()) as u64;
     let triangles = if mode == Mode::Triangles { index_count / 3 } else { index_count.saturating_sub(2) };
-    let generates_tangents = normal_mapped && tangents.is_none() && uvs.is_some();
+    let generates_tangents = tangent_space && tangents.is_none() && uvs.is_some();
     let attributes = Attributes {
         normals: normals.is_some(),
         uvs: uvs.is_some(),
@@ -596,7 +597,7 @@ fn convert(doc: &Document, buffers: &[buffer::Data], images: Vec<Image>, name: S
                         coincident += 1;
                         continue;
                     }
-                    let normal_mapped = prim.material().normal_texture().is_some();
+                    let tangent_space = needs_tangents(&prim.material());
                     let weights = node.weights().or(mesh.weights()).unwrap_or_default();
                     if prim.morph_targets().len() > 0 {
                         warnings.add(
@@ -611,7 +612,7 @@ fn convert(doc: &Document, buffers: &[buffer::Data], images: Vec<Image>, name: S
                         buffers,
                         world,
                         default_material,
-                        normal_mapped,
+                        tangent_space,
                         weights,
                         &mut warnings,
                     )?;
@@ -841,6 +842,13 @@ fn volume_factors(
     factors
 }
 
+/// Whether primitives of material `m` need tangents: for its normal map or its
+/// anisotropy direction.
+fn needs_tangents(m: &gltf::Material) -> bool {
+    m.normal_texture().is_some()
+        || m.extension_value("KHR_materials_anisotropy").is_some_and(|a| factor(a, "anisotropyStrength", 0.0) > 0.0)
+}
+
 fn convert_material(m: &gltf::Material, texture_count: usize, warnings: &mut Warnings) -> Material {
     let pbr = m.pbr_metallic_roughness();
     let [r, g, b, a] = pbr.base_color_factor();
@@ -924,6 +932,11 @@ fn convert_material(m: &gltf::Material, texture_count: usize, warnings: &mut War
             warnings.add("clearcoat normal textures are not supported: the clearcoat uses the base normal");
         }
     }
+    if let Some(a) = m.extension_value("KHR_materials_anisotropy") {
+        mat.anisotropy_strength = factor(a, "anisotropyStrength", 0.0);
+        mat.anisotropy_rotation = factor(a, "anisotropyRotation", 0.0);
+        mat.anisotropy_tex = texture_json(a.get("anisotropyTexture"), texture_count, warnings);
+    }
     if let Some(sh) = m.extension_value("KHR_materials_sheen") {
         let color = sh.get("sheenColorFactor").and_then(Value::as_array).map_or(Vec3::ZERO, |a| {
             Vec3::from_array([0, 1, 2].map(|i| a.get(i).and_then(Value::as_f64).unwrap_or(0.0) as f32))
@@ -958,6 +971,10 @@ fn sanitise(m: &mut Material) {
     m.clearcoat = unit(m.clearcoat, 0.0);
     m.clearcoat_roughness = unit(m.clearcoat_roughness, 0.0);
     m.sheen_roughness = unit(m.sheen_roughness, 0.0);
+    m.anisotropy_strength = unit(m.anisotropy_strength, 0.0);
+    if !m.anisotropy_rotation.is_finite() {
+        m.anisotropy_rotation = 0.0;
+    }
     m.sheen_color = m.sheen_color.clamp(Vec3::ZERO, Vec3::ONE);
     if !(m.ior.is_finite() && m.ior >= 1.0) {
         m.ior = 1.5;
@@ -1018,7 +1035,7 @@ fn convert_primitive(
     buffers: &[buffer::Data],
     world: DMat4,
     default_material: u32,
-    normal_mapped: bool,
+    tangent_space: bool,
     weights: &[f32],
     warnings: &mut Warnings,
 ) -> Result<Option<(MeshDesc, Vec<DVec3>)>, String> {
@@ -1063,7 +1080,7 @@ fn convert_primitive(
     let colors = reader.read_colors(0).map(|c| c.into_rgba_f32().map(Vec4::from).collect::<Vec<_>>());
     let linear = DMat3::from_mat4(world);
     let handedness = world.determinant().signum() as f32;
-    let tangents = match read(Semantic::Tangents).filter(|_| normal_mapped) {
+    let tangents = match read(Semantic::Tangents).filter(|_| tangent_space) {
         Some(a) => Some({
             let tangents = attributes::read::<4>(&a, get).ok_or_else(|| unreadable(&a))?;
             let mut xyz: Vec<[f32; 3]> = tangents.iter().map(|t| [t[0], t[1], t[2]]).collect();
@@ -1102,9 +1119,12 @@ fn convert_primitive(
         material,
         variants: variants::mappings(prim, default_material, warnings),
     };
-    if normal_mapped && mesh.tangents.is_none() {
+    if tangent_space && mesh.tangents.is_none() {
         if mesh.uvs.is_none() {
-            warnings.add("a normal-mapped primitive has no TEXCOORD_0: normal map ignored");
+            warnings.add(
+                "a primitive that needs tangents (normal map, anisotropy) has neither TANGENT nor TEXCOORD_0: \
+                 normal map ignored, anisotropy along an arbitrary direction",
+            );
             return Ok(Some((mesh, positions)));
         }
         let (mesh, positions) = super::tangents::generate(mesh, positions);

@@ -4,6 +4,7 @@
 use super::texture::{ColorSpace, Image, Texture};
 use super::{Features, Surface};
 use crate::bsdf::{Bsdf, Lambert, MetalRough, measured::MerlTable, sheen::MIN_SHEEN_ALPHA};
+use crate::math::frame::Frame;
 use crate::medium::Volume;
 use crate::spectrum::Spectrum;
 use glam::{Affine2, Vec2, Vec3, Vec4, Vec4Swizzles};
@@ -170,6 +171,12 @@ pub struct Material {
     pub clearcoat_roughness: f32,
     /// Texture whose G channel scales `clearcoat_roughness`.
     pub clearcoat_roughness_tex: Option<TexRef>,
+    /// KHR_materials_anisotropy anisotropyStrength in [0, 1] (0: isotropic).
+    pub anisotropy_strength: f32,
+    /// anisotropyRotation: radians counter-clockwise from the tangent.
+    pub anisotropy_rotation: f32,
+    /// Texture whose RG give the direction in [-1, 1] tangent space and B scales the strength.
+    pub anisotropy_tex: Option<TexRef>,
     /// KHR_materials_sheen colour (zero: no sheen).
     pub sheen_color: Vec3,
     /// sRGB texture scaling `sheen_color`.
@@ -241,6 +248,9 @@ impl Default for Material {
             clearcoat_tex: None,
             clearcoat_roughness: 0.0,
             clearcoat_roughness_tex: None,
+            anisotropy_strength: 0.0,
+            anisotropy_rotation: 0.0,
+            anisotropy_tex: None,
             sheen_color: Vec3::ZERO,
             sheen_color_tex: None,
             sheen_roughness: 0.0,
@@ -343,8 +353,9 @@ impl Material {
         self.alpha_mode != AlphaMode::Opaque || !self.double_sided
     }
 
-    fn textures(&self) -> [Option<TexRef>; 13] {
+    fn textures(&self) -> [Option<TexRef>; 14] {
         [
+            self.anisotropy_tex,
             self.diffuse_transmission_tex,
             self.diffuse_transmission_color_tex,
             self.base_color_tex,
@@ -377,8 +388,11 @@ impl Material {
         self.alpha * tex * surface.color.w
     }
 
-    /// The BSDF at a surface point, seen from its front (`front`) or back side, with
-    /// `outside_ior` the index of the medium on the side away from this material's volume.
+    /// The BSDF at a surface point in the shading `frame`, seen from its front (`front`) or
+    /// back side, with `outside_ior` the index of the medium on the side away from this
+    /// material's volume. An anisotropic material turns the frame about its normal so that
+    /// +x is the anisotropy direction, which `tangent` (the interpolated tangent, asked for
+    /// only then) places.
     /// Colours become spectra here (`Spectrum::from_rgb`); GGX alphas below
     /// `bsdf::SMOOTH_ALPHA` become delta lobes in the BSDF. `features` are the scene's: in
     /// a scene without textures or glossy lobes their checks are skipped.
@@ -387,6 +401,7 @@ impl Material {
         &self,
         scene: SceneRefs<'_>,
         surface: &Surface,
+        (frame, tangent): (&mut Frame, impl FnOnce() -> Vec4),
         (front, outside_ior): (bool, f32),
         wavelength: Option<f32>,
     ) -> Bsdf<'_> {
@@ -439,10 +454,18 @@ impl Material {
             (Some(_), false) => outside_ior / ior,
         };
         let alpha = |r: f32| (r * r).clamp(0.0, 1.0);
+        let mut anisotropy = self.anisotropy_strength;
+        if anisotropy > 0.0 {
+            let texel = lookup(self.anisotropy_tex, ColorSpace::Linear);
+            let direction = texel.map_or(Vec2::X, |t| (t.xy() * 2.0 - 1.0).normalize_or(Vec2::X));
+            anisotropy *= texel.map_or(1.0, |t| t.z);
+            *frame = frame.aligned(self.anisotropy_axis(surface.ns, tangent(), direction));
+        }
         Bsdf::MetalRough(MetalRough {
             base: Spectrum::from_rgb(base.clamp(Vec3::ZERO, Vec3::ONE)),
             metallic: metallic.clamp(0.0, 1.0),
             alpha: alpha(roughness),
+            anisotropy: anisotropy.clamp(0.0, 1.0),
             dielectric_f0: Spectrum::from_rgb((f0 * specular_tint).min(Vec3::ONE)),
             specular: specular.clamp(0.0, 1.0),
             specular_tint: Spectrum::from_rgb(specular_tint),
@@ -456,6 +479,17 @@ impl Material {
             diffuse_transmission: diffuse_transmission.clamp(0.0, 1.0),
             diffuse_transmission_color: Spectrum::from_rgb(diffuse_transmission_color.clamp(Vec3::ZERO, Vec3::ONE)),
         })
+    }
+
+    /// World direction of the anisotropy: the tangent-space `direction` turned by
+    /// anisotropyRotation, in the frame of `tangent`, the bitangent (sign x n x t) and the
+    /// shading normal `n`. Zero without tangents (the frame then stays as it is).
+    fn anisotropy_axis(&self, n: Vec3, tangent: Vec4, direction: Vec2) -> Vec3 {
+        let (sin, cos) = self.anisotropy_rotation.sin_cos();
+        let d = Vec2::new(cos * direction.x - sin * direction.y, sin * direction.x + cos * direction.y);
+        let t = tangent.xyz();
+        let sign = if tangent.w < 0.0 { -1.0 } else { 1.0 };
+        t * d.x + sign * n.cross(t) * d.y
     }
 
     /// What an unlit material shows: base colour x vertex colour x base colour texture. Kept

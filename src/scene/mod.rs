@@ -98,7 +98,7 @@ pub struct MeshDesc {
     pub uvs1: Option<Vec<Vec2>>,
     /// Linear vertex colours (COLOR_0, RGBA), if any.
     pub colors: Option<Vec<Vec4>>,
-    /// Tangents with the bitangent sign in w, if the mesh is normal-mapped.
+    /// Tangents with the bitangent sign in w, if its material has a normal map or anisotropy.
     pub tangents: Option<Vec<Vec4>>,
     /// Triangle list; counter-clockwise triangles face the viewer.
     pub indices: Vec<u32>,
@@ -442,6 +442,15 @@ impl Scene {
             surface.ns = normal_mapped(surface.ns, tangent, m * Vec3::new(scale, scale, 1.0));
         }
         surface
+    }
+
+    /// Interpolated tangent at `surface`, the bitangent sign in w; zero where its mesh has
+    /// none (only meshes whose material has a normal map or anisotropy carry them).
+    pub fn tangent(&self, surface: &Surface) -> Vec4 {
+        let b = surface.b;
+        self.geometry
+            .extra(surface.tri)
+            .map_or(Vec4::ZERO, |e| e.tangents[0] * b[0] + e.tangents[1] * b[1] + e.tangents[2] * b[2])
     }
 
     /// The point of triangle `tri` at barycentrics `b` as light sampling needs it, and
