@@ -1,6 +1,6 @@
 //! The glTF metallic-roughness BSDF (glTF 2.0 spec Appendix B) with the extensions that add
 //! lobes: KHR_materials_specular, _transmission, _volume (through `thin` and `eta`),
-//! _clearcoat and _sheen. Layered top to bottom:
+//! _clearcoat, _sheen, _anisotropy and _iridescence. Layered top to bottom:
 //!
 //!   sheen  over  clearcoat  over  mix(dielectric, metal, metallic),
 //!   dielectric = mix(diffuse base under a GGX specular layer, rough interface, transmission),
@@ -23,6 +23,10 @@
 //!   white metal at roughness 1). Both GGX reflection lobes get Kulla and Conty's (2017)
 //!   compensation lobe F_ms (1 - A(wo)) (1 - A(wi)) / (pi (1 - A_avg)), A being the albedo
 //!   at F = 1, so that a white metal reflects everything at every roughness.
+//! - KHR_materials_iridescence: the metal's and the dielectric specular's Fresnel term
+//!   becomes mix(Schlick, thin film, iridescence) (`thin_film.rs`, RGB), the film over a base
+//!   of the index their F0 implies; the diffuse base's weight reads the tables at the
+//!   film's reflectance at normal incidence mixed in the same way.
 //! - Sheen and clearcoat weight what lies under them by 1 - s max(E(wo), E(wi)): symmetric,
 //!   and never more than the energy they leave.
 
@@ -30,6 +34,7 @@ use super::albedo::{ggx_albedo, ggx_average_albedo};
 use super::dielectric::Interface;
 use super::microfacet::{Ggx, reflect};
 use super::sheen::Sheen;
+use super::thin_film;
 use super::{BsdfSample, LobeFlags, TransportMode, is_smooth};
 use crate::math::warp;
 use crate::spectrum::Spectrum;
@@ -69,6 +74,12 @@ pub struct MetalRough {
     pub clearcoat: f32,
     /// GGX alpha of the clearcoat (below `SMOOTH_ALPHA`: a delta lobe).
     pub clearcoat_alpha: f32,
+    /// KHR_materials_iridescence factor in [0, 1] (0: no thin film).
+    pub iridescence: f32,
+    /// Index of refraction of the thin film.
+    pub film_ior: f32,
+    /// Thickness of the thin film, nm.
+    pub film_thickness: f32,
     /// KHR_materials_sheen colour (zero: no sheen).
     pub sheen: Spectrum,
     /// Sheen alpha (sheenRoughness^2).
@@ -95,6 +106,9 @@ impl Default for MetalRough {
             thin: true,
             clearcoat: 0.0,
             clearcoat_alpha: 1.0,
+            iridescence: 0.0,
+            film_ior: 1.3,
+            film_thickness: 400.0,
             sheen: Spectrum::ZERO,
             sheen_alpha: 0.25,
             diffuse_transmission: 0.0,
@@ -196,6 +210,29 @@ impl MetalRough {
 
     fn sheen_lobe(&self) -> Sheen {
         Sheen { color: self.sheen, alpha: self.sheen_alpha }
+    }
+
+    /// Fresnel reflectance at cosine `cos` of a layer with normal-incidence reflectance
+    /// `f0`: Schlick's, mixed with the thin film's by the iridescence factor.
+    fn fresnel(&self, f0: Spectrum, cos: f32) -> Spectrum {
+        let schlick = schlick(f0, cos);
+        if self.iridescence > 0.0 {
+            schlick * (1.0 - self.iridescence) + self.film(f0, cos) * self.iridescence
+        } else {
+            schlick
+        }
+    }
+
+    /// The thin film's RGB reflectance at cosine `cos` over a base whose F0 is `f0`, each
+    /// channel over the index its F0 implies (one evaluation when `f0` is grey).
+    fn film(&self, f0: Spectrum, cos: f32) -> Spectrum {
+        let rgb = f0.to_rgb();
+        let over =
+            |f: f32| thin_film::reflectance_rgb(cos, self.film_ior, thin_film::f0_to_ior(f), self.film_thickness);
+        if rgb.x == rgb.y && rgb.y == rgb.z {
+            return Spectrum::from_rgb(over(rgb.x));
+        }
+        Spectrum::from_rgb(Vec3::new(over(rgb.x).x, over(rgb.y).y, over(rgb.z).z))
     }
 
     /// Whether any light passes to the other side.
@@ -309,7 +346,10 @@ impl MetalRough {
         if self.specular <= 0.0 {
             return 1.0;
         }
-        let f0 = self.dielectric_f0.max_element();
+        let mut f0 = self.dielectric_f0.max_element();
+        if self.iridescence > 0.0 {
+            f0 += (self.film(self.dielectric_f0, 1.0).max_element() - f0) * self.iridescence;
+        }
         let (e_o, avg) = self.layer_albedo(mu_o, f0);
         let (e_i, _) = self.layer_albedo(mu_i, f0);
         if 1.0 - avg <= 1e-6 {
@@ -326,12 +366,12 @@ impl MetalRough {
         let (ms, a_avg) = self.multiple_scattering(wo.z, wi.z);
         let ms = ms * wi.z;
         let metal = if self.metallic > 0.0 {
-            schlick(self.base, voh) * single + multiple_scattering_fresnel(self.base, a_avg) * ms
+            self.fresnel(self.base, voh) * single + multiple_scattering_fresnel(self.base, a_avg) * ms
         } else {
             Spectrum::ZERO
         };
         let dielectric = if self.metallic < 1.0 && self.transmission < 1.0 {
-            let specular = (schlick(self.dielectric_f0, voh) * single
+            let specular = (self.fresnel(self.dielectric_f0, voh) * single
                 + multiple_scattering_fresnel(self.dielectric_f0, a_avg) * ms)
                 * self.specular;
             let reflected = 1.0 - self.diffuse_transmission;
@@ -469,8 +509,8 @@ impl MetalRough {
         let mut base = Spectrum::ZERO;
         let (m, tr) = (self.metallic, if self.refracts() { self.transmission } else { 0.0 });
         if self.smooth() {
-            let dielectric = schlick(self.dielectric_f0, mu) * (self.specular * (1.0 - tr));
-            base = schlick(self.base, mu) * m + dielectric * (1.0 - m);
+            let dielectric = self.fresnel(self.dielectric_f0, mu) * (self.specular * (1.0 - tr));
+            base = self.fresnel(self.base, mu) * m + dielectric * (1.0 - m);
         }
         if self.smooth_interface() && tr > 0.0 {
             base += self.specular_tint * (r * tr * (1.0 - m));

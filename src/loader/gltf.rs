@@ -40,6 +40,7 @@ const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_diffuse_transmission",
     "KHR_materials_sheen",
     "KHR_materials_anisotropy",
+    "KHR_materials_iridescence",
     "KHR_texture_transform",
     "KHR_lights_punctual",
     "KHR_xmp",
@@ -937,6 +938,15 @@ fn convert_material(m: &gltf::Material, texture_count: usize, warnings: &mut War
         mat.anisotropy_rotation = factor(a, "anisotropyRotation", 0.0);
         mat.anisotropy_tex = texture_json(a.get("anisotropyTexture"), texture_count, warnings);
     }
+    if let Some(i) = m.extension_value("KHR_materials_iridescence") {
+        mat.iridescence = factor(i, "iridescenceFactor", 0.0);
+        mat.iridescence_tex = texture_json(i.get("iridescenceTexture"), texture_count, warnings);
+        // The schema spells it iridescenceIor, the extension's README iridescenceIOR.
+        mat.iridescence_ior = factor(i, "iridescenceIor", factor(i, "iridescenceIOR", 1.3));
+        mat.iridescence_thickness_min = factor(i, "iridescenceThicknessMinimum", 100.0);
+        mat.iridescence_thickness_max = factor(i, "iridescenceThicknessMaximum", 400.0);
+        mat.iridescence_thickness_tex = texture_json(i.get("iridescenceThicknessTexture"), texture_count, warnings);
+    }
     if let Some(sh) = m.extension_value("KHR_materials_sheen") {
         let color = sh.get("sheenColorFactor").and_then(Value::as_array).map_or(Vec3::ZERO, |a| {
             Vec3::from_array([0, 1, 2].map(|i| a.get(i).and_then(Value::as_f64).unwrap_or(0.0) as f32))
@@ -972,6 +982,13 @@ fn sanitise(m: &mut Material) {
     m.clearcoat_roughness = unit(m.clearcoat_roughness, 0.0);
     m.sheen_roughness = unit(m.sheen_roughness, 0.0);
     m.anisotropy_strength = unit(m.anisotropy_strength, 0.0);
+    m.iridescence = unit(m.iridescence, 0.0);
+    if !(m.iridescence_ior.is_finite() && m.iridescence_ior >= 1.0) {
+        m.iridescence_ior = 1.3;
+    }
+    let thickness = |t: f32, default: f32| if t.is_finite() && t >= 0.0 { t } else { default };
+    m.iridescence_thickness_min = thickness(m.iridescence_thickness_min, 100.0);
+    m.iridescence_thickness_max = thickness(m.iridescence_thickness_max, 400.0);
     if !m.anisotropy_rotation.is_finite() {
         m.anisotropy_rotation = 0.0;
     }

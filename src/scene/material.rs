@@ -177,6 +177,18 @@ pub struct Material {
     pub anisotropy_rotation: f32,
     /// Texture whose RG give the direction in [-1, 1] tangent space and B scales the strength.
     pub anisotropy_tex: Option<TexRef>,
+    /// KHR_materials_iridescence iridescenceFactor (0: no thin film).
+    pub iridescence: f32,
+    /// Texture whose R channel scales `iridescence`.
+    pub iridescence_tex: Option<TexRef>,
+    /// iridescenceIor: index of refraction of the film.
+    pub iridescence_ior: f32,
+    /// iridescenceThicknessMinimum, nm.
+    pub iridescence_thickness_min: f32,
+    /// iridescenceThicknessMaximum, nm: the thickness without a thickness texture.
+    pub iridescence_thickness_max: f32,
+    /// Texture whose G channel chooses the thickness between minimum and maximum.
+    pub iridescence_thickness_tex: Option<TexRef>,
     /// KHR_materials_sheen colour (zero: no sheen).
     pub sheen_color: Vec3,
     /// sRGB texture scaling `sheen_color`.
@@ -251,6 +263,12 @@ impl Default for Material {
             anisotropy_strength: 0.0,
             anisotropy_rotation: 0.0,
             anisotropy_tex: None,
+            iridescence: 0.0,
+            iridescence_tex: None,
+            iridescence_ior: 1.3,
+            iridescence_thickness_min: 100.0,
+            iridescence_thickness_max: 400.0,
+            iridescence_thickness_tex: None,
             sheen_color: Vec3::ZERO,
             sheen_color_tex: None,
             sheen_roughness: 0.0,
@@ -353,8 +371,10 @@ impl Material {
         self.alpha_mode != AlphaMode::Opaque || !self.double_sided
     }
 
-    fn textures(&self) -> [Option<TexRef>; 14] {
+    fn textures(&self) -> [Option<TexRef>; 16] {
         [
+            self.iridescence_tex,
+            self.iridescence_thickness_tex,
             self.anisotropy_tex,
             self.diffuse_transmission_tex,
             self.diffuse_transmission_color_tex,
@@ -461,6 +481,10 @@ impl Material {
             anisotropy *= texel.map_or(1.0, |t| t.z);
             *frame = frame.aligned(self.anisotropy_axis(surface.ns, tangent(), direction));
         }
+        let iridescence = self.iridescence * lookup(self.iridescence_tex, ColorSpace::Linear).map_or(1.0, |t| t.x);
+        let (thin, thick) = (self.iridescence_thickness_min, self.iridescence_thickness_max);
+        let film_thickness =
+            lookup(self.iridescence_thickness_tex, ColorSpace::Linear).map_or(thick, |t| thin + (thick - thin) * t.y);
         Bsdf::MetalRough(MetalRough {
             base: Spectrum::from_rgb(base.clamp(Vec3::ZERO, Vec3::ONE)),
             metallic: metallic.clamp(0.0, 1.0),
@@ -474,6 +498,9 @@ impl Material {
             thin: self.volume.is_none(),
             clearcoat: clearcoat.clamp(0.0, 1.0),
             clearcoat_alpha: alpha(clearcoat_roughness),
+            iridescence: iridescence.clamp(0.0, 1.0),
+            film_ior: self.iridescence_ior,
+            film_thickness: film_thickness.max(0.0),
             sheen: Spectrum::from_rgb(sheen.clamp(Vec3::ZERO, Vec3::ONE)),
             sheen_alpha: (sheen_roughness * sheen_roughness).clamp(MIN_SHEEN_ALPHA, 1.0),
             diffuse_transmission: diffuse_transmission.clamp(0.0, 1.0),
