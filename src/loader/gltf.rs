@@ -934,17 +934,25 @@ fn convert_material(m: &gltf::Material, texture_count: usize, warnings: &mut War
         }
     }
     if let Some(a) = m.extension_value("KHR_materials_anisotropy") {
-        mat.anisotropy_strength = factor(a, "anisotropyStrength", 0.0);
+        let strength = factor(a, "anisotropyStrength", 0.0);
+        mat.anisotropy_strength = in_range(&mat.name, "anisotropyStrength", strength, (0.0, 1.0), None, warnings);
         mat.anisotropy_rotation = factor(a, "anisotropyRotation", 0.0);
         mat.anisotropy_tex = texture_json(a.get("anisotropyTexture"), texture_count, warnings);
     }
     if let Some(i) = m.extension_value("KHR_materials_iridescence") {
-        mat.iridescence = factor(i, "iridescenceFactor", 0.0);
+        let name = &mat.name;
+        let iridescence = factor(i, "iridescenceFactor", 0.0);
+        mat.iridescence = in_range(name, "iridescenceFactor", iridescence, (0.0, 1.0), None, warnings);
         mat.iridescence_tex = texture_json(i.get("iridescenceTexture"), texture_count, warnings);
         // The schema spells it iridescenceIor, the extension's README iridescenceIOR.
-        mat.iridescence_ior = factor(i, "iridescenceIor", factor(i, "iridescenceIOR", 1.3));
-        mat.iridescence_thickness_min = factor(i, "iridescenceThicknessMinimum", 100.0);
-        mat.iridescence_thickness_max = factor(i, "iridescenceThicknessMaximum", 400.0);
+        let ior = factor(i, "iridescenceIor", factor(i, "iridescenceIOR", 1.3));
+        mat.iridescence_ior = in_range(name, "iridescenceIor", ior, (1.0, f32::INFINITY), Some(1.3), warnings);
+        for (key, default, slot) in [
+            ("iridescenceThicknessMinimum", 100.0, &mut mat.iridescence_thickness_min),
+            ("iridescenceThicknessMaximum", 400.0, &mut mat.iridescence_thickness_max),
+        ] {
+            *slot = in_range(name, key, factor(i, key, default), (0.0, f32::INFINITY), Some(default), warnings);
+        }
         mat.iridescence_thickness_tex = texture_json(i.get("iridescenceThicknessTexture"), texture_count, warnings);
     }
     if let Some(sh) = m.extension_value("KHR_materials_sheen") {
@@ -968,6 +976,25 @@ fn serde_json_value(n: &gltf::material::NormalTexture) -> Value {
         info["extensions"] = serde_json::json!({ "KHR_texture_transform": t.clone() });
     }
     info
+}
+
+/// `v` if it lies in [lo, hi]; otherwise, with a warning naming the material and the
+/// property `key`, `fallback`, or `v` clamped into the range if there is none.
+fn in_range(
+    material: &str,
+    key: &str,
+    v: f32,
+    (lo, hi): (f32, f32),
+    fallback: Option<f32>,
+    warnings: &mut Warnings,
+) -> f32 {
+    if (lo..=hi).contains(&v) {
+        return v;
+    }
+    let used = fallback.unwrap_or(v.clamp(lo, hi));
+    let range = if hi.is_finite() { format!("outside [{lo}, {hi}]") } else { format!("below {lo}") };
+    warnings.add(format!("material \"{material}\": {key} {v} is {range}: {used} used"));
+    used
 }
 
 /// Clamps factors into their ranges; NaN (from hostile JSON) becomes the default.
