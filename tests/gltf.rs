@@ -602,7 +602,12 @@ fn with_materials(materials: Value, textures: usize) -> PathBuf {
     let uri = format!("data:image/png;base64,{}", base64::engine::general_purpose::STANDARD.encode(&png));
     let mut doc: Value = serde_json::from_slice(&one_triangle(json!({"mesh": 0}), [0, 1, 2])).unwrap();
     let n = materials.as_array().unwrap().len();
-    doc["extensionsUsed"] = json!(["KHR_materials_anisotropy", "KHR_materials_iridescence", "KHR_texture_transform"]);
+    doc["extensionsUsed"] = json!([
+        "KHR_materials_anisotropy",
+        "KHR_materials_iridescence",
+        "KHR_materials_clearcoat",
+        "KHR_texture_transform"
+    ]);
     doc["images"] = json!([{"uri": uri}]);
     doc["textures"] = Value::Array(vec![json!({"source": 0}); textures]);
     doc["materials"] = materials;
@@ -615,7 +620,7 @@ fn with_materials(materials: Value, textures: usize) -> PathBuf {
 }
 
 #[test]
-fn anisotropy_and_iridescence_are_read_with_the_specs_defaults_and_ranges() {
+fn anisotropy_iridescence_and_clearcoat_normals_are_read_with_the_specs_defaults_and_ranges() {
     use lucent::scene::material::TexRef;
     let materials = json!([
         {"name": "given", "extensions": {
@@ -631,10 +636,13 @@ fn anisotropy_and_iridescence_are_read_with_the_specs_defaults_and_ranges() {
         {"name": "wild", "extensions": {
             "KHR_materials_anisotropy": {"anisotropyStrength": 1.5, "anisotropyTexture": {"index": 9}},
             "KHR_materials_iridescence": {"iridescenceFactor": -0.5, "iridescenceIor": 0.8,
-                "iridescenceThicknessMinimum": -10, "iridescenceThicknessMaximum": -1}}}
+                "iridescenceThicknessMinimum": -10, "iridescenceThicknessMaximum": -1}}},
+        {"name": "coat", "extensions": {"KHR_materials_clearcoat": {"clearcoatFactor": 1,
+            "clearcoatNormalTexture": {"index": 1, "scale": 0.25}}}},
+        {"name": "plain coat", "extensions": {"KHR_materials_clearcoat": {"clearcoatFactor": 1}}}
     ]);
     let desc = gltf::load(&with_materials(materials, 4)).unwrap_or_else(|e| panic!("{e}"));
-    let [given, empty, readme, wild] = [0, 1, 2, 3].map(|i| &desc.materials[i]);
+    let [given, empty, readme, wild, coat, plain_coat] = [0, 1, 2, 3, 4, 5].map(|i| &desc.materials[i]);
     assert_eq!((given.anisotropy_strength, given.anisotropy_rotation), (0.6, 1.25));
     assert_eq!(given.anisotropy_tex.map(|t| (t.texture, t.set)), Some((1, 1)));
     assert_eq!((given.iridescence, given.iridescence_ior), (0.75, 1.8));
@@ -666,4 +674,8 @@ fn anisotropy_and_iridescence_are_read_with_the_specs_defaults_and_ranges() {
     }
     assert!(desc.warnings.iter().all(|w| !w.contains("\"given\"") && !w.contains("\"empty\"")), "{:?}", desc.warnings);
     assert!(desc.warnings.iter().all(|w| !w.contains('\n')), "one line each");
+    // KHR_materials_clearcoat's clearcoatNormalTexture, with its scale (1 by default).
+    assert_eq!((coat.clearcoat_normal_tex, coat.clearcoat_normal_scale), (Some(TexRef::plain(1)), 0.25));
+    assert_eq!((plain_coat.clearcoat_normal_tex, plain_coat.clearcoat_normal_scale), (None, 1.0));
+    assert!(desc.warnings.iter().all(|w| !w.contains("not supported")), "{:?}", desc.warnings);
 }

@@ -105,7 +105,7 @@ fn the_sidecar_assigns_tables_by_name_and_reports_bad_files_in_one_line() {
     let surface_bsdf = built.materials[0].bsdf(
         built.refs(),
         &dummy_surface(),
-        (&mut lucent::math::frame::Frame::from_normal(Vec3::Z), || glam::Vec4::ZERO),
+        (&mut lucent::math::frame::Frame::from_normal(Vec3::Z), || (glam::Vec4::ZERO, Vec3::Z)),
         (true, 1.0),
         None,
     );

@@ -29,6 +29,12 @@
 //!   film's reflectance at normal incidence mixed in the same way.
 //! - Sheen and clearcoat weight what lies under them by 1 - s max(E(wo), E(wi)): symmetric,
 //!   and never more than the energy they leave.
+//!
+//! The clearcoat has its own normal (KHR_materials_clearcoat's clearcoatNormalTexture), in
+//! the local frame: its GGX lobe is the microfacet BRDF about that normal, D and G with the
+//! directions' cosines to it, Fresnel at v.h, times the cosine to it (as the Khronos sample
+//! renderer weights it); zero where wo or wi is below it, or wi below the base. Tilted and
+//! smooth, its delta leaves in its own mirror direction, a delta of its own.
 
 use super::albedo::{ggx_albedo, ggx_average_albedo};
 use super::dielectric::Interface;
@@ -36,7 +42,7 @@ use super::microfacet::{Ggx, reflect};
 use super::sheen::Sheen;
 use super::thin_film;
 use super::{BsdfSample, LobeFlags, TransportMode, is_smooth};
-use crate::math::warp;
+use crate::math::{frame::Frame, warp};
 use crate::spectrum::Spectrum;
 use glam::{Vec2, Vec3};
 use std::f32::consts::FRAC_1_PI;
@@ -74,6 +80,8 @@ pub struct MetalRough {
     pub clearcoat: f32,
     /// GGX alpha of the clearcoat (below `SMOOTH_ALPHA`: a delta lobe).
     pub clearcoat_alpha: f32,
+    /// The clearcoat's unit normal in the local frame, above it (+z: the base's normal).
+    pub clearcoat_normal: Vec3,
     /// KHR_materials_iridescence factor in [0, 1] (0: no thin film).
     pub iridescence: f32,
     /// Index of refraction of the thin film.
@@ -106,6 +114,7 @@ impl Default for MetalRough {
             thin: true,
             clearcoat: 0.0,
             clearcoat_alpha: 1.0,
+            clearcoat_normal: Vec3::Z,
             iridescence: 0.0,
             film_ior: 1.3,
             film_thickness: 400.0,
@@ -157,6 +166,8 @@ struct Deltas {
     reflection: f32,
     transmission: f32,
     interface_reflectance: f32,
+    /// The probability of a smooth clearcoat's mirror direction about its tilted normal.
+    coat: f32,
 }
 
 impl MetalRough {
@@ -198,6 +209,82 @@ impl MetalRough {
     /// Whether the clearcoat is present and a delta.
     fn smooth_coat(&self) -> bool {
         self.clearcoat > 0.0 && is_smooth(self.clearcoat_alpha)
+    }
+
+    /// Whether the clearcoat's normal is not the base's.
+    fn coat_tilted(&self) -> bool {
+        self.clearcoat_normal != Vec3::Z
+    }
+
+    /// Whether the clearcoat can reflect light arriving from `wo`: it is not tilted, or wo
+    /// is above it and, if smooth, its mirror direction above the base.
+    fn coat_reflects(&self, wo: Vec3) -> bool {
+        let n = self.clearcoat_normal;
+        !self.coat_tilted() || (wo.dot(n) > 0.0 && (!self.smooth_coat() || reflect(wo, n).z > 0.0))
+    }
+
+    /// Cosine of `w` to the clearcoat's normal.
+    fn coat_cos(&self, w: Vec3) -> f32 {
+        if self.coat_tilted() { w.dot(self.clearcoat_normal) } else { w.z }
+    }
+
+    /// The smooth clearcoat's delta about its tilted normal, chosen with probability `p`:
+    /// f |cos| integrated over it (Fresnel at the cosine to the normal, under the sheen),
+    /// None where the mirror direction is below the base or wo below the coat.
+    #[cold]
+    #[inline(never)]
+    fn tilted_coat_delta(&self, wo: Vec3, p: f32) -> Option<BsdfSample> {
+        let n = self.clearcoat_normal;
+        let cos = wo.dot(n);
+        let wi = reflect(wo, n);
+        if cos <= 0.0 || wi.z <= 0.0 {
+            return None;
+        }
+        let (sheen_w, _) = self.layer_weights(wo, wi);
+        let f = self.clearcoat * (CLEARCOAT_F0 + (1.0 - CLEARCOAT_F0) * schlick_weight(cos)) * sheen_w;
+        let flags = LobeFlags::REFLECTION | LobeFlags::SPECULAR;
+        Some(BsdfSample { wi, weight: Spectrum::splat(f / p), pdf: p, flags, eta: 1.0 })
+    }
+
+    /// The rough clearcoat's f |cos| (cosine to its normal) at (wo, wi) with half vector
+    /// `h`, and the density of its VNDF sampling there.
+    fn coat_eval_pdf(&self, wo: Vec3, wi: Vec3, h: Vec3) -> (f32, f32) {
+        let coat = Ggx::isotropic(self.clearcoat_alpha);
+        let (wo_c, wi_c, h_c) = if self.coat_tilted() {
+            let frame = Frame::from_normal(self.clearcoat_normal);
+            (frame.to_local(wo), frame.to_local(wi), frame.to_local(h))
+        } else {
+            (wo, wi, h)
+        };
+        if wo_c.z <= 0.0 || wi_c.z <= 0.0 {
+            return (0.0, 0.0);
+        }
+        let dc = coat.d(h_c);
+        let fresnel = CLEARCOAT_F0 + (1.0 - CLEARCOAT_F0) * schlick_weight(wo.dot(h));
+        (self.clearcoat * fresnel * dc * coat.g2(wo_c, wi_c) / (4.0 * wo_c.z), coat.reflection_pdf(wo_c, dc))
+    }
+
+    /// A direction reflected about a visible normal of the rough clearcoat, above the base
+    /// and the coat.
+    fn sample_coat(&self, wo: Vec3, u: Vec2) -> Option<Vec3> {
+        if self.coat_tilted() {
+            return self.sample_tilted_coat(wo, u);
+        }
+        Some(reflect(wo, Ggx::isotropic(self.clearcoat_alpha).sample_visible_normal(wo, u))).filter(|w| w.z > 0.0)
+    }
+
+    /// `sample_coat` about a tilted normal (kept out of line: most coats are not tilted).
+    #[cold]
+    #[inline(never)]
+    fn sample_tilted_coat(&self, wo: Vec3, u: Vec2) -> Option<Vec3> {
+        let coat = Ggx::isotropic(self.clearcoat_alpha);
+        let frame = Frame::from_normal(self.clearcoat_normal);
+        let wo_c = frame.to_local(wo);
+        if wo_c.z <= 0.0 {
+            return None;
+        }
+        let wi = reflect(wo, frame.to_world(coat.sample_visible_normal(wo_c, u)));
+        (wi.z > 0.0 && wi.dot(self.clearcoat_normal) > 0.0).then_some(wi)
     }
 
     /// The transmitting interface. Between equal indices (eta 1) light goes straight through
@@ -301,7 +388,7 @@ impl MetalRough {
         if s > 0.0 { s * self.sheen_lobe().albedo(mu) } else { 0.0 }
     }
 
-    /// Albedo of the clearcoat at cosine `mu` (0 without clearcoat).
+    /// Albedo of the clearcoat at cosine `mu` to its normal (0 without clearcoat).
     fn clearcoat_albedo(&self, mu: f32) -> f32 {
         if self.clearcoat > 0.0 {
             self.clearcoat * ggx_albedo(mu, self.clearcoat_alpha.sqrt(), CLEARCOAT_F0)
@@ -310,10 +397,15 @@ impl MetalRough {
         }
     }
 
-    /// The shares of (wo, wi) that reach below sheen and below clearcoat.
-    fn layer_weights(&self, mu_o: f32, mu_i: f32) -> (f32, f32) {
-        let sheen = 1.0 - self.sheen_albedo(mu_o).max(self.sheen_albedo(mu_i));
-        let coat = 1.0 - self.clearcoat_albedo(mu_o).max(self.clearcoat_albedo(mu_i));
+    /// The shares of (wo, wi) that reach below sheen and below clearcoat (each at the
+    /// directions' cosines to its normal, wi's on either side).
+    fn layer_weights(&self, wo: Vec3, wi: Vec3) -> (f32, f32) {
+        let sheen = 1.0 - self.sheen_albedo(wo.z).max(self.sheen_albedo(wi.z.abs()));
+        let coat = if self.clearcoat > 0.0 {
+            1.0 - self.clearcoat_albedo(self.coat_cos(wo)).max(self.clearcoat_albedo(self.coat_cos(wi).abs()))
+        } else {
+            1.0
+        };
         (sheen, coat)
     }
 
@@ -407,7 +499,7 @@ impl MetalRough {
     }
 
     fn eval_pdf_with(&self, p: &Lobes, wo: Vec3, wi: Vec3, mode: TransportMode) -> (Spectrum, f32) {
-        let (sheen_w, coat_w) = self.layer_weights(wo.z, wi.z.abs());
+        let (sheen_w, coat_w) = self.layer_weights(wo, wi);
         let (interface, interface_pdf) = if self.refracts() && !self.smooth_interface() {
             let tint = if wi.z > 0.0 { self.specular_tint } else { self.base };
             let (f, pdf) = self.interface().eval_pdf(wo, wi, mode);
@@ -429,11 +521,9 @@ impl MetalRough {
         let mut pdf =
             interface_pdf + p.cosine * warp::cos_hemisphere_pdf(wi.z) + p.specular * ggx.reflection_pdf(wo, d);
         if self.clearcoat > 0.0 && !self.smooth_coat() {
-            let coat = Ggx::isotropic(self.clearcoat_alpha);
-            let dc = coat.d(h);
-            let fresnel = CLEARCOAT_F0 + (1.0 - CLEARCOAT_F0) * schlick_weight(wo.dot(h));
-            f += Spectrum::splat(self.clearcoat * fresnel * dc * coat.g2(wo, wi) / (4.0 * wo.z));
-            pdf += p.clearcoat * coat.reflection_pdf(wo, dc);
+            let (coat, coat_pdf) = self.coat_eval_pdf(wo, wi, h);
+            f += Spectrum::splat(coat);
+            pdf += p.clearcoat * coat_pdf;
         }
         f *= sheen_w;
         if self.sheen.max_element() > 0.0 {
@@ -446,7 +536,8 @@ impl MetalRough {
     fn lobes(&self, wo: Vec3) -> Lobes {
         let mu = wo.z;
         let sheen = self.sheen_albedo(mu);
-        let coat = self.clearcoat_albedo(mu);
+        let coat =
+            if self.clearcoat > 0.0 && self.coat_reflects(wo) { self.clearcoat_albedo(self.coat_cos(wo)) } else { 0.0 };
         let below = (1.0 - sheen) * (1.0 - coat);
         let (m, tr) = (self.metallic, if self.refracts() { self.transmission } else { 0.0 });
         let dt = if self.diffuse_transmits() { self.diffuse_transmission } else { 0.0 };
@@ -479,7 +570,7 @@ impl MetalRough {
 
     /// The delta lobes' probabilities at wo under the technique probabilities `p`.
     fn deltas(&self, p: &Lobes, wo: Vec3) -> Deltas {
-        let mut d = Deltas { reflection: 0.0, transmission: 0.0, interface_reflectance: 0.0 };
+        let mut d = Deltas { reflection: 0.0, transmission: 0.0, interface_reflectance: 0.0, coat: 0.0 };
         if self.smooth() {
             d.reflection += p.specular;
         }
@@ -490,7 +581,11 @@ impl MetalRough {
             d.transmission = p.interface * (1.0 - r);
         }
         if self.smooth_coat() {
-            d.reflection += p.clearcoat;
+            if self.coat_tilted() {
+                d.coat = p.clearcoat;
+            } else {
+                d.reflection += p.clearcoat;
+            }
         }
         d
     }
@@ -499,13 +594,13 @@ impl MetalRough {
     pub fn specular_probability(&self, wo: Vec3) -> f32 {
         let p = self.lobes(wo);
         let d = self.deltas(&p, wo);
-        d.reflection + d.transmission
+        d.reflection + d.transmission + d.coat
     }
 
     /// f |cos| integrated over the mirror direction's delta: what the smooth lobes reflect.
     fn delta_reflection(&self, wo: Vec3, r: f32) -> Spectrum {
         let mu = wo.z;
-        let (sheen_w, coat_w) = self.layer_weights(mu, mu);
+        let (sheen_w, coat_w) = self.layer_weights(wo, mirror(wo));
         let mut base = Spectrum::ZERO;
         let (m, tr) = (self.metallic, if self.refracts() { self.transmission } else { 0.0 });
         if self.smooth() {
@@ -516,7 +611,7 @@ impl MetalRough {
             base += self.specular_tint * (r * tr * (1.0 - m));
         }
         let mut f = base * coat_w;
-        if self.smooth_coat() {
+        if self.smooth_coat() && !self.coat_tilted() {
             f += Spectrum::splat(self.clearcoat * (CLEARCOAT_F0 + (1.0 - CLEARCOAT_F0) * schlick_weight(mu)));
         }
         f * sheen_w
@@ -524,7 +619,7 @@ impl MetalRough {
 
     /// f |cos| integrated over the transmitted direction `wi`'s delta.
     fn delta_transmission(&self, wo: Vec3, wi: Vec3, r: f32, mode: TransportMode) -> Spectrum {
-        let (sheen_w, coat_w) = self.layer_weights(wo.z, wi.z.abs());
+        let (sheen_w, coat_w) = self.layer_weights(wo, wi);
         let share = (1.0 - r) * self.transmission * (1.0 - self.metallic) * self.interface().transmission_scale(mode);
         self.base * (share * sheen_w * coat_w)
     }
@@ -560,6 +655,10 @@ impl MetalRough {
             return Some(BsdfSample { wi, weight, pdf: deltas.transmission, flags, eta: interface.crossed_eta() });
         }
         x -= deltas.transmission;
+        if x < deltas.coat {
+            return self.tilted_coat_delta(wo, deltas.coat);
+        }
+        x -= deltas.coat;
         let p_interface = if self.smooth_interface() { 0.0 } else { p.interface };
         let p_specular = if self.smooth() { 0.0 } else { p.specular };
         let p_coat = if self.smooth_coat() { 0.0 } else { p.clearcoat };
@@ -569,7 +668,7 @@ impl MetalRough {
         } else if x < p_interface + p_specular {
             (above(reflect(wo, self.ggx().sample_visible_normal(wo, u)))?, true)
         } else if x < p_interface + p_specular + p_coat {
-            (above(reflect(wo, Ggx::isotropic(self.clearcoat_alpha).sample_visible_normal(wo, u)))?, true)
+            (self.sample_coat(wo, u)?, true)
         } else if x < p_interface + p_specular + p_coat + p.diffuse_transmission {
             let w = warp::cos_hemisphere(u);
             ((w.z > 0.0).then_some(Vec3::new(w.x, w.y, -w.z))?, false)

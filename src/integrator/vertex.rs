@@ -62,7 +62,7 @@ impl<'a> Vertex<'a> {
         let bsdf = material.bsdf(
             scene.refs(),
             &surface,
-            (&mut frame, || scene.tangent(&surface)),
+            (&mut frame, || scene.tangent_space(&surface)),
             (front, outside_ior),
             wavelength,
         );

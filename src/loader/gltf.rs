@@ -843,11 +843,13 @@ fn volume_factors(
     factors
 }
 
-/// Whether primitives of material `m` need tangents: for its normal map or its
-/// anisotropy direction.
+/// Whether primitives of material `m` need tangents: for its normal map, its anisotropy
+/// direction or its clearcoat's normal map.
 fn needs_tangents(m: &gltf::Material) -> bool {
     m.normal_texture().is_some()
         || m.extension_value("KHR_materials_anisotropy").is_some_and(|a| factor(a, "anisotropyStrength", 0.0) > 0.0)
+        || m.extension_value("KHR_materials_clearcoat")
+            .is_some_and(|c| factor(c, "clearcoatFactor", 0.0) > 0.0 && c.get("clearcoatNormalTexture").is_some())
 }
 
 fn convert_material(m: &gltf::Material, texture_count: usize, warnings: &mut Warnings) -> Material {
@@ -929,9 +931,9 @@ fn convert_material(m: &gltf::Material, texture_count: usize, warnings: &mut War
         mat.clearcoat_tex = texture_json(c.get("clearcoatTexture"), texture_count, warnings);
         mat.clearcoat_roughness = factor(c, "clearcoatRoughnessFactor", 0.0);
         mat.clearcoat_roughness_tex = texture_json(c.get("clearcoatRoughnessTexture"), texture_count, warnings);
-        if c.get("clearcoatNormalTexture").is_some() {
-            warnings.add("clearcoat normal textures are not supported: the clearcoat uses the base normal");
-        }
+        let normal = c.get("clearcoatNormalTexture");
+        mat.clearcoat_normal_tex = texture_json(normal, texture_count, warnings);
+        mat.clearcoat_normal_scale = normal.map_or(1.0, |n| factor(n, "scale", 1.0));
     }
     if let Some(a) = m.extension_value("KHR_materials_anisotropy") {
         let strength = factor(a, "anisotropyStrength", 0.0);
@@ -1166,8 +1168,8 @@ fn convert_primitive(
     if tangent_space && mesh.tangents.is_none() {
         if mesh.uvs.is_none() {
             warnings.add(
-                "a primitive that needs tangents (normal map, anisotropy) has neither TANGENT nor TEXCOORD_0: \
-                 normal map ignored, anisotropy along an arbitrary direction",
+                "a primitive that needs tangents (normal map, anisotropy, clearcoat normal map) has neither \
+                 TANGENT nor TEXCOORD_0: normal maps ignored, anisotropy along an arbitrary direction",
             );
             return Ok(Some((mesh, positions)));
         }

@@ -171,6 +171,11 @@ pub struct Material {
     pub clearcoat_roughness: f32,
     /// Texture whose G channel scales `clearcoat_roughness`.
     pub clearcoat_roughness_tex: Option<TexRef>,
+    /// The clearcoat's tangent-space normal map (without it, and with a base normal map,
+    /// the clearcoat keeps the unmapped normal, as the extension says).
+    pub clearcoat_normal_tex: Option<TexRef>,
+    /// Scale of the clearcoat normal map's X and Y.
+    pub clearcoat_normal_scale: f32,
     /// KHR_materials_anisotropy anisotropyStrength in [0, 1] (0: isotropic).
     pub anisotropy_strength: f32,
     /// anisotropyRotation: radians counter-clockwise from the tangent.
@@ -260,6 +265,8 @@ impl Default for Material {
             clearcoat_tex: None,
             clearcoat_roughness: 0.0,
             clearcoat_roughness_tex: None,
+            clearcoat_normal_tex: None,
+            clearcoat_normal_scale: 1.0,
             anisotropy_strength: 0.0,
             anisotropy_rotation: 0.0,
             anisotropy_tex: None,
@@ -371,8 +378,9 @@ impl Material {
         self.alpha_mode != AlphaMode::Opaque || !self.double_sided
     }
 
-    fn textures(&self) -> [Option<TexRef>; 16] {
+    fn textures(&self) -> [Option<TexRef>; 17] {
         [
+            self.clearcoat_normal_tex,
             self.iridescence_tex,
             self.iridescence_thickness_tex,
             self.anisotropy_tex,
@@ -410,9 +418,11 @@ impl Material {
 
     /// The BSDF at a surface point in the shading `frame`, seen from its front (`front`) or
     /// back side, with `outside_ior` the index of the medium on the side away from this
-    /// material's volume. An anisotropic material turns the frame about its normal so that
-    /// +x is the anisotropy direction, which `tangent` (the interpolated tangent, asked for
-    /// only then) places.
+    /// material's volume. `basis` gives the interpolated tangent and the interpolated normal
+    /// before normal mapping (asked for only by the two things that need them): an
+    /// anisotropic material turns the frame about its normal so that +x is the anisotropy
+    /// direction the tangent places, and a clearcoat with its own normal map, or under a
+    /// mapped base, gets its normal from them (`clearcoat_normal`).
     /// Colours become spectra here (`Spectrum::from_rgb`); GGX alphas below
     /// `bsdf::SMOOTH_ALPHA` become delta lobes in the BSDF. `features` are the scene's: in
     /// a scene without textures or glossy lobes their checks are skipped.
@@ -421,7 +431,7 @@ impl Material {
         &self,
         scene: SceneRefs<'_>,
         surface: &Surface,
-        (frame, tangent): (&mut Frame, impl FnOnce() -> Vec4),
+        (frame, basis): (&mut Frame, impl FnOnce() -> (Vec4, Vec3)),
         (front, outside_ior): (bool, f32),
         wavelength: Option<f32>,
     ) -> Bsdf<'_> {
@@ -475,12 +485,21 @@ impl Material {
         };
         let alpha = |r: f32| (r * r).clamp(0.0, 1.0);
         let mut anisotropy = self.anisotropy_strength;
-        if anisotropy > 0.0 {
+        let coat_mapped = clearcoat > 0.0 && (self.clearcoat_normal_tex.is_some() || self.normal_tex.is_some());
+        let basis = (anisotropy > 0.0 || coat_mapped).then(basis);
+        if let Some((tangent, _)) = basis.filter(|_| anisotropy > 0.0) {
             let texel = lookup(self.anisotropy_tex, ColorSpace::Linear);
             let direction = texel.map_or(Vec2::X, |t| (t.xy() * 2.0 - 1.0).normalize_or(Vec2::X));
             anisotropy *= texel.map_or(1.0, |t| t.z);
-            *frame = frame.aligned(self.anisotropy_axis(surface.ns, tangent(), direction));
+            *frame = frame.aligned(self.anisotropy_axis(surface.ns, tangent, direction));
         }
+        let clearcoat_normal = match basis.filter(|_| coat_mapped) {
+            Some(basis) => {
+                let map = lookup(self.clearcoat_normal_tex, ColorSpace::Linear);
+                self.clearcoat_normal(frame, basis, map, front)
+            }
+            None => Vec3::Z,
+        };
         let iridescence = self.iridescence * lookup(self.iridescence_tex, ColorSpace::Linear).map_or(1.0, |t| t.x);
         let (thin, thick) = (self.iridescence_thickness_min, self.iridescence_thickness_max);
         let film_thickness =
@@ -498,6 +517,7 @@ impl Material {
             thin: self.volume.is_none(),
             clearcoat: clearcoat.clamp(0.0, 1.0),
             clearcoat_alpha: alpha(clearcoat_roughness),
+            clearcoat_normal,
             iridescence: iridescence.clamp(0.0, 1.0),
             film_ior: self.iridescence_ior,
             film_thickness: film_thickness.max(0.0),
@@ -506,6 +526,26 @@ impl Material {
             diffuse_transmission: diffuse_transmission.clamp(0.0, 1.0),
             diffuse_transmission_color: Spectrum::from_rgb(diffuse_transmission_color.clamp(Vec3::ZERO, Vec3::ONE)),
         })
+    }
+
+    /// The clearcoat's normal in `frame` (its normal on the side seen, `front` or not): the
+    /// interpolated normal of `(tangent, normal)` perturbed by the clearcoat normal map's
+    /// `texel` (glTF convention: RGB in [0, 1] to [-1, 1], X and Y times the scale), or left
+    /// unperturbed without one. +z where it would face away from the frame's normal.
+    fn clearcoat_normal(
+        &self,
+        frame: &Frame,
+        (tangent, normal): (Vec4, Vec3),
+        texel: Option<Vec4>,
+        front: bool,
+    ) -> Vec3 {
+        let scale = Vec3::new(self.clearcoat_normal_scale, self.clearcoat_normal_scale, 1.0);
+        let world = match texel {
+            Some(t) => super::normal_mapped(normal, tangent, (t.xyz() * 2.0 - 1.0) * scale),
+            None => normal,
+        };
+        let local = frame.to_local(if front { world } else { -world }).normalize_or_zero();
+        if local.z > 0.0 { local } else { Vec3::Z }
     }
 
     /// World direction of the anisotropy: the tangent-space `direction` turned by
