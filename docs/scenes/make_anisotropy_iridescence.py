@@ -107,7 +107,11 @@ materials = [
 ]
 xs = [-2.6, -1.3, 0.0, 1.3, 2.6]
 nodes = [{"mesh": floor(0)}, {"mesh": disc(xs[0], R * 1.2, 0.0, 1)}]
-nodes += [{"mesh": sphere(x, R, 0.0, m)} for x, m in zip(xs[1:], [2, 3, 4, 5])]
+# One sphere mesh per material, all four from the same vertex data placed by their nodes.
+shape = sphere(0.0, 0.0, 0.0, 2)
+for m in [3, 4, 5]:
+    meshes.append({"primitives": [dict(meshes[shape]["primitives"][0], material=m)]})
+nodes += [{"mesh": shape + i, "translation": [x, R, 0.0]} for i, x in enumerate(xs[1:])]
 eye, target = [0.0, 1.6, 7.0], [0.0, 0.55, 0.0]
 nodes.append({"camera": 0, "translation": eye, "rotation": look_at(eye, target)})
 sun = [-0.45, -0.6, -0.66]
