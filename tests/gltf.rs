@@ -294,13 +294,13 @@ fn required_extensions_are_decided_by_lucents_own_list() {
     };
     let err = load("unquantized.gltf", json!({})).unwrap_err();
     assert!(err.contains("accessor 0 is Vec3 of I8, which POSITION cannot be"), "{err}");
-    let anisotropy = json!({
+    let glossiness = json!({
         "extensionsUsed": ["KHR_mesh_quantization", "KHR_texture_basisu"],
-        "extensionsRequired": ["KHR_mesh_quantization", "KHR_materials_anisotropy"]
+        "extensionsRequired": ["KHR_mesh_quantization", "KHR_materials_pbrSpecularGlossiness"]
     });
-    let err = load("anisotropy.gltf", anisotropy).unwrap_err();
+    let err = load("glossiness.gltf", glossiness).unwrap_err();
     assert!(
-        err.ends_with("requires the glTF extension KHR_materials_anisotropy, which Lucent does not support"),
+        err.ends_with("requires the glTF extension KHR_materials_pbrSpecularGlossiness, which Lucent does not support"),
         "{err}"
     );
     // gltf-json's own list leaves out extensions Lucent renders, such as KHR_materials_volume.
@@ -624,4 +624,93 @@ fn unlit_materials_show_their_base_colour_to_the_camera_and_light_nothing() {
     assert!(a.mean.iter().any(|&m| (m - base).abs().max_element() < 1e-6), "the base colour is seen");
     // Nothing lights the white triangle: the image is the unlit triangle's alone.
     assert_eq!(a.mean, b.mean, "the unlit triangle lights nothing");
+}
+
+/// A one-triangle glTF with one 1x1 image and `textures` textures of it, whose meshes use
+/// `materials` in turn (one node each).
+fn with_materials(materials: Value, textures: usize) -> PathBuf {
+    use image::ImageEncoder;
+    let mut png = Vec::new();
+    image::codecs::png::PngEncoder::new(&mut png)
+        .write_image(&[128; 4], 1, 1, image::ExtendedColorType::Rgba8)
+        .unwrap();
+    let uri = format!("data:image/png;base64,{}", base64::engine::general_purpose::STANDARD.encode(&png));
+    let mut doc: Value = serde_json::from_slice(&one_triangle(json!({"mesh": 0}), [0, 1, 2])).unwrap();
+    let n = materials.as_array().unwrap().len();
+    doc["extensionsUsed"] = json!([
+        "KHR_materials_anisotropy",
+        "KHR_materials_iridescence",
+        "KHR_materials_clearcoat",
+        "KHR_texture_transform"
+    ]);
+    doc["images"] = json!([{"uri": uri}]);
+    doc["textures"] = Value::Array(vec![json!({"source": 0}); textures]);
+    doc["materials"] = materials;
+    doc["meshes"] = (0..n)
+        .map(|m| json!({"primitives": [{"attributes": {"POSITION": 0, "NORMAL": 1}, "indices": 2, "material": m}]}))
+        .collect();
+    doc["nodes"] = (0..n).map(|m| json!({"mesh": m})).collect();
+    doc["scenes"] = json!([{"nodes": (0..n).collect::<Vec<_>>()}]);
+    temp("materials.gltf", &serde_json::to_vec(&doc).unwrap())
+}
+
+#[test]
+fn anisotropy_iridescence_and_clearcoat_normals_are_read_with_the_specs_defaults_and_ranges() {
+    use lucent::scene::material::TexRef;
+    let materials = json!([
+        {"name": "given", "extensions": {
+            "KHR_materials_anisotropy": {"anisotropyStrength": 0.6, "anisotropyRotation": 1.25,
+                "anisotropyTexture": {"index": 1, "texCoord": 1}},
+            "KHR_materials_iridescence": {"iridescenceFactor": 0.75, "iridescenceIor": 1.8,
+                "iridescenceThicknessMinimum": 250, "iridescenceThicknessMaximum": 650,
+                "iridescenceTexture": {"index": 2},
+                "iridescenceThicknessTexture": {"index": 3,
+                    "extensions": {"KHR_texture_transform": {"offset": [0.5, 0.25]}}}}}},
+        {"name": "empty", "extensions": {"KHR_materials_anisotropy": {}, "KHR_materials_iridescence": {}}},
+        {"name": "readme spelling", "extensions": {"KHR_materials_iridescence": {"iridescenceFactor": 1, "iridescenceIOR": 2.0}}},
+        {"name": "wild", "extensions": {
+            "KHR_materials_anisotropy": {"anisotropyStrength": 1.5, "anisotropyTexture": {"index": 9}},
+            "KHR_materials_iridescence": {"iridescenceFactor": -0.5, "iridescenceIor": 0.8,
+                "iridescenceThicknessMinimum": -10, "iridescenceThicknessMaximum": -1}}},
+        {"name": "coat", "extensions": {"KHR_materials_clearcoat": {"clearcoatFactor": 1,
+            "clearcoatNormalTexture": {"index": 1, "scale": 0.25}}}},
+        {"name": "plain coat", "extensions": {"KHR_materials_clearcoat": {"clearcoatFactor": 1}}}
+    ]);
+    let desc = gltf::load(&with_materials(materials, 4)).unwrap_or_else(|e| panic!("{e}"));
+    let [given, empty, readme, wild, coat, plain_coat] = [0, 1, 2, 3, 4, 5].map(|i| &desc.materials[i]);
+    assert_eq!((given.anisotropy_strength, given.anisotropy_rotation), (0.6, 1.25));
+    assert_eq!(given.anisotropy_tex.map(|t| (t.texture, t.set)), Some((1, 1)));
+    assert_eq!((given.iridescence, given.iridescence_ior), (0.75, 1.8));
+    assert_eq!((given.iridescence_thickness_min, given.iridescence_thickness_max), (250.0, 650.0));
+    assert_eq!(given.iridescence_tex, Some(TexRef::plain(2)));
+    let thickness = given.iridescence_thickness_tex.expect("thickness texture");
+    assert_eq!(thickness.texture, 3);
+    assert_eq!(thickness.transform.translation, glam::Vec2::new(0.5, 0.25), "KHR_texture_transform read");
+    // The specs' defaults: no anisotropy, no film; a film of index 1.3 between 100 and 400 nm.
+    assert_eq!((empty.anisotropy_strength, empty.anisotropy_rotation, empty.anisotropy_tex), (0.0, 0.0, None));
+    assert_eq!((empty.iridescence, empty.iridescence_ior, empty.iridescence_tex), (0.0, 1.3, None));
+    assert_eq!((empty.iridescence_thickness_min, empty.iridescence_thickness_max), (100.0, 400.0));
+    assert_eq!(empty.iridescence_thickness_tex, None);
+    assert_eq!((readme.iridescence, readme.iridescence_ior), (1.0, 2.0), "the README's iridescenceIOR");
+    // Out of range: factors clamped, an index below 1 and negative thicknesses replaced by
+    // the defaults, each with one warning naming the material; a missing texture is dropped.
+    assert_eq!((wild.anisotropy_strength, wild.anisotropy_tex), (1.0, None));
+    assert_eq!((wild.iridescence, wild.iridescence_ior), (0.0, 1.3));
+    assert_eq!((wild.iridescence_thickness_min, wild.iridescence_thickness_max), (100.0, 400.0));
+    for expected in [
+        "\"wild\": anisotropyStrength 1.5 is outside [0, 1]: 1 used",
+        "\"wild\": iridescenceFactor -0.5 is outside [0, 1]: 0 used",
+        "\"wild\": iridescenceIor 0.8 is below 1: 1.3 used",
+        "\"wild\": iridescenceThicknessMinimum -10 is below 0: 100 used",
+        "\"wild\": iridescenceThicknessMaximum -1 is below 0: 400 used",
+        "texture index 9 is out of range",
+    ] {
+        assert_eq!(desc.warnings.iter().filter(|w| w.contains(expected)).count(), 1, "{expected}: {:?}", desc.warnings);
+    }
+    assert!(desc.warnings.iter().all(|w| !w.contains("\"given\"") && !w.contains("\"empty\"")), "{:?}", desc.warnings);
+    assert!(desc.warnings.iter().all(|w| !w.contains('\n')), "one line each");
+    // KHR_materials_clearcoat's clearcoatNormalTexture, with its scale (1 by default).
+    assert_eq!((coat.clearcoat_normal_tex, coat.clearcoat_normal_scale), (Some(TexRef::plain(1)), 0.25));
+    assert_eq!((plain_coat.clearcoat_normal_tex, plain_coat.clearcoat_normal_scale), (None, 1.0));
+    assert!(desc.warnings.iter().all(|w| !w.contains("not supported")), "{:?}", desc.warnings);
 }

@@ -1,6 +1,6 @@
 //! Materials in whole scenes: the Cornell glass scene (no NaN, a caustic under the glass
 //! sphere, the walls mirrored in the metal sphere), Beer-Lambert attenuation against
-//! thickness, alpha MASK and BLEND, single-sided culling and normal maps.
+//! thickness, alpha MASK and BLEND, single-sided culling, normal maps and clearcoat normal maps.
 
 mod common;
 
@@ -141,4 +141,90 @@ fn alpha_lets_light_through_and_single_sided_backs_are_culled() {
     assert_eq!(seen(black(0.6, AlphaMode::Mask(0.5), true), true).0, 0.0, "MASK above the cutoff blocks");
     assert_eq!(seen(black(1.0, AlphaMode::Opaque, false), false).0, 1.0, "a single-sided back is culled");
     assert_eq!(seen(black(1.0, AlphaMode::Opaque, true), false).0, 0.0, "a double-sided back is not");
+}
+
+/// A BSDF of `material` at a surface point whose shading normal is `ns` and whose unmapped
+/// normal is +z (tangent +x), read through a 1x1 16-bit texture of `texel` (linear codes).
+fn bsdf_with_texel(material: &Material, ns: Vec3, texel: [u16; 4]) -> lucent::bsdf::Bsdf<'_> {
+    use lucent::scene::texture::{Image, Texels, Texture, Wrap};
+    let textures = vec![Texture { name: "t".into(), image: 0, wrap: [Wrap::Repeat; 2], nearest: true }];
+    let images = vec![Image { width: 1, height: 1, texels: Texels::Words(vec![texel]) }];
+    let features = lucent::scene::Features { textures: true, glossy: true, ..Default::default() };
+    let refs = lucent::scene::material::SceneRefs { textures: &textures, images: &images, features };
+    let surface = lucent::scene::Surface {
+        p: Vec3::ZERO,
+        p_error: Vec3::ZERO,
+        ng: Vec3::Z,
+        ns,
+        uv: [glam::Vec2::splat(0.5); 2],
+        color: glam::Vec4::ONE,
+        material: 0,
+        tri: 0,
+        b: [1.0, 0.0, 0.0],
+    };
+    let mut frame = lucent::math::frame::Frame::from_normal(ns);
+    let basis = || (glam::Vec4::new(1.0, 0.0, 0.0, 1.0), Vec3::Z);
+    material.bsdf(refs, &surface, (&mut frame, basis), (true, 1.0), None)
+}
+
+/// The clearcoat's normal in the BSDF's local frame.
+fn coat_normal(bsdf: &lucent::bsdf::Bsdf) -> Vec3 {
+    match bsdf {
+        lucent::bsdf::Bsdf::MetalRough(m) => m.clearcoat_normal,
+        _ => panic!("not the glTF BSDF"),
+    }
+}
+
+#[test]
+fn clearcoat_normal_maps_tilt_the_coat_alone_and_a_flat_one_changes_nothing() {
+    use lucent::bsdf::TransportMode;
+    use lucent::scene::material::TexRef;
+    let plain = Material {
+        base_color: Vec3::new(0.8, 0.3, 0.1),
+        metallic: 0.0,
+        roughness: 0.6,
+        clearcoat: 1.0,
+        clearcoat_roughness: 0.3,
+        ..Material::default()
+    };
+    let flat_map = Material { clearcoat_normal_tex: Some(TexRef::plain(0)), ..plain.clone() };
+    // A flat texel (0.5, 0.5, 1): 32768 / 65535 is 0.5 + 7.6e-6, a tilt of 1.5e-5 rad.
+    let flat = [32768, 32768, 65535, 65535];
+    let (a, b) = (bsdf_with_texel(&plain, Vec3::Z, flat), bsdf_with_texel(&flat_map, Vec3::Z, flat));
+    assert_eq!(coat_normal(&a), Vec3::Z);
+    assert!((coat_normal(&b) - Vec3::Z).length() < 3e-5, "{}", coat_normal(&b));
+    // f cos and pdf agree to 1e-3 (the lobe's slope at a 1.5e-5 rad tilt is far below it);
+    // a tilted coat normal (below) differs by more than 10%.
+    let tilted_map = Material { clearcoat_normal_scale: 0.5, ..flat_map.clone() };
+    let tilted = bsdf_with_texel(&tilted_map, Vec3::Z, [52428, 32768, 58982, 65535]);
+    let mut tilted_differs = 0;
+    for (theta_o, theta_i, phi) in [(0.3f32, 0.5f32, 3.0f32), (0.9, 0.8, 2.5), (1.3, 1.2, 3.1), (0.6, 0.2, 1.0)] {
+        let wo = Vec3::new(theta_o.sin(), 0.0, theta_o.cos());
+        let wi = Vec3::new(theta_i.sin() * phi.cos(), theta_i.sin() * phi.sin(), theta_i.cos());
+        let (fa, pa) = a.eval_pdf(wo, wi, TransportMode::Radiance);
+        let (fb, pb) = b.eval_pdf(wo, wi, TransportMode::Radiance);
+        let close = |x: f32, y: f32| (x - y).abs() <= 1e-3 * x.abs().max(y.abs());
+        assert!(close(fa.max_element(), fb.max_element()) && close(pa, pb), "{fa:?} {pa} vs {fb:?} {pb}");
+        let (ft, _) = tilted.eval_pdf(wo, wi, TransportMode::Radiance);
+        tilted_differs += usize::from((ft.max_element() - fa.max_element()).abs() > 0.1 * fa.max_element());
+        for u in [0.1f32, 0.5, 0.95] {
+            let (sa, sb) = (
+                a.sample(wo, u, glam::Vec2::new(0.3, 0.7), TransportMode::Radiance),
+                b.sample(wo, u, glam::Vec2::new(0.3, 0.7), TransportMode::Radiance),
+            );
+            let (sa, sb) = (sa.unwrap(), sb.unwrap());
+            assert!((sa.wi - sb.wi).length() < 1e-4 && close(sa.pdf, sb.pdf), "{sa:?} vs {sb:?}");
+        }
+    }
+    assert!(tilted_differs > 0, "a tilted coat normal changes the BSDF");
+    // The texel (0.8, 0.5, 0.9) is (0.6, 0, 0.8) in tangent space, X and Y scaled by 0.5.
+    let want = Vec3::new(0.3, 0.0, 0.8).normalize();
+    assert!((coat_normal(&tilted) - want).length() < 1e-4, "{} vs {want}", coat_normal(&tilted));
+    // Under a normal-mapped base, a coat without its own map keeps the unmapped normal: +z
+    // in the world, which the base's tilted frame sees tilted the other way.
+    let mapped_base = Material { normal_tex: Some(TexRef::plain(0)), ..plain.clone() };
+    let ns = Vec3::new(0.6, 0.0, 0.8);
+    let under = bsdf_with_texel(&mapped_base, ns, flat);
+    let frame = lucent::math::frame::Frame::from_normal(ns);
+    assert!((coat_normal(&under) - frame.to_local(Vec3::Z)).length() < 1e-5, "{}", coat_normal(&under));
 }

@@ -102,7 +102,13 @@ fn the_sidecar_assigns_tables_by_name_and_reports_bad_files_in_one_line() {
     assert!(red.measured.as_ref().is_some_and(|m| m.path.ends_with("analytic.binary")));
     assert!(desc.warnings.iter().any(|w| w.contains("\"Blue\"")), "{:?}", desc.warnings);
     let built = Scene::build(desc);
-    let surface_bsdf = built.materials[0].bsdf(built.refs(), &dummy_surface(), (true, 1.0), None);
+    let surface_bsdf = built.materials[0].bsdf(
+        built.refs(),
+        &dummy_surface(),
+        (&mut lucent::math::frame::Frame::from_normal(Vec3::Z), || (glam::Vec4::ZERO, Vec3::Z)),
+        (true, 1.0),
+        None,
+    );
     assert!(matches!(surface_bsdf, Bsdf::Measured(_)), "the measured table replaces the glTF BRDF");
 
     std::fs::write(dir.join("brdfs/truncated.binary"), &common::merl_bytes(common::analytic_brdf)[..1000]).unwrap();

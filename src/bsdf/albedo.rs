@@ -62,7 +62,7 @@ fn average(row: &[f32; N]) -> f32 {
 /// 20 ms): how `albedo_table.rs` was computed (`cargo run --release --example albedo_table`).
 pub fn compute_row(j: usize) -> ([f32; N], [f32; N]) {
     let r = roughness_at(j);
-    let ggx = Ggx { alpha: (r * r).max(super::SMOOTH_ALPHA) };
+    let ggx = Ggx::isotropic((r * r).max(super::SMOOTH_ALPHA));
     let (mut a_row, mut b_row) = ([0.0; N], [0.0; N]);
     for i in 0..N {
         let mu = mu_at(i);
@@ -129,7 +129,7 @@ mod tests {
 
     /// E by a midpoint rule over the incident hemisphere, independent of VNDF sampling.
     fn quadrature(mu: f32, roughness: f32, f0: f32) -> f32 {
-        let ggx = Ggx { alpha: roughness * roughness };
+        let ggx = Ggx::isotropic(roughness * roughness);
         let wo = Vec3::new((1.0 - mu * mu).sqrt(), 0.0, mu);
         let n = 300;
         let mut sum = 0.0f64;

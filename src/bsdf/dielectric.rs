@@ -14,8 +14,8 @@ use glam::{Vec2, Vec3};
 /// A dielectric boundary at one surface point.
 #[derive(Clone, Copy, Debug)]
 pub struct Interface {
-    /// GGX alpha of the microfacets.
-    pub alpha: f32,
+    /// GGX distribution of the microfacets (anisotropic with KHR_materials_anisotropy).
+    pub ggx: Ggx,
     /// Relative index of refraction n_other / n_wo.
     pub eta: f32,
     /// Thin-walled: transmitted light leaves the far side without bending.
@@ -39,10 +39,6 @@ fn flip(w: Vec3) -> Vec3 {
 }
 
 impl Interface {
-    fn ggx(&self) -> Ggx {
-        Ggx { alpha: self.alpha }
-    }
-
     /// Relative index crossed by transmitted light: 1 through a thin wall.
     pub fn crossed_eta(&self) -> f32 {
         if self.thin { 1.0 } else { self.eta }
@@ -101,7 +97,7 @@ impl Interface {
     /// f |cos theta_i| of the rough interface before tinting, and the solid-angle density
     /// of `sample`: reflection for wi.z > 0, transmission for wi.z < 0.
     pub fn eval_pdf(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> (f32, f32) {
-        let ggx = self.ggx();
+        let ggx = self.ggx;
         match self.connect(wo, wi) {
             Some(Connection::Mirrored { h, wr, share }) => {
                 let d = ggx.d(h);
@@ -120,7 +116,7 @@ impl Interface {
     /// A visible microfacet of the rough interface from `u`, then reflection with
     /// probability F (decided by `u_lobe`) or refraction. None for directions on the wrong side.
     pub fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<Vec3> {
-        let h = self.ggx().sample_visible_normal(wo, u);
+        let h = self.ggx.sample_visible_normal(wo, u);
         let r = self.reflectance(wo.dot(h));
         let wi = if u_lobe < r {
             reflect(wo, h)

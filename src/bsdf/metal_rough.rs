@@ -1,6 +1,6 @@
 //! The glTF metallic-roughness BSDF (glTF 2.0 spec Appendix B) with the extensions that add
 //! lobes: KHR_materials_specular, _transmission, _volume (through `thin` and `eta`),
-//! _clearcoat and _sheen. Layered top to bottom:
+//! _clearcoat, _sheen, _anisotropy and _iridescence. Layered top to bottom:
 //!
 //!   sheen  over  clearcoat  over  mix(dielectric, metal, metallic),
 //!   dielectric = mix(diffuse base under a GGX specular layer, rough interface, transmission),
@@ -23,15 +23,26 @@
 //!   white metal at roughness 1). Both GGX reflection lobes get Kulla and Conty's (2017)
 //!   compensation lobe F_ms (1 - A(wo)) (1 - A(wi)) / (pi (1 - A_avg)), A being the albedo
 //!   at F = 1, so that a white metal reflects everything at every roughness.
+//! - KHR_materials_iridescence: the metal's and the dielectric specular's Fresnel term
+//!   becomes mix(Schlick, thin film, iridescence) (`thin_film.rs`, RGB), the film over a base
+//!   of the index their F0 implies; the diffuse base's weight reads the tables at the
+//!   film's reflectance at normal incidence mixed in the same way.
 //! - Sheen and clearcoat weight what lies under them by 1 - s max(E(wo), E(wi)): symmetric,
 //!   and never more than the energy they leave.
+//!
+//! The clearcoat has its own normal (KHR_materials_clearcoat's clearcoatNormalTexture), in
+//! the local frame: its GGX lobe is the microfacet BRDF about that normal, D and G with the
+//! directions' cosines to it, Fresnel at v.h, times the cosine to it (as the Khronos sample
+//! renderer weights it); zero where wo or wi is below it, or wi below the base. Tilted and
+//! smooth, its delta leaves in its own mirror direction, a delta of its own.
 
 use super::albedo::{ggx_albedo, ggx_average_albedo};
 use super::dielectric::Interface;
 use super::microfacet::{Ggx, reflect};
 use super::sheen::Sheen;
+use super::thin_film;
 use super::{BsdfSample, LobeFlags, TransportMode, is_smooth};
-use crate::math::warp;
+use crate::math::{frame::Frame, warp};
 use crate::spectrum::Spectrum;
 use glam::{Vec2, Vec3};
 use std::f32::consts::FRAC_1_PI;
@@ -46,8 +57,13 @@ pub struct MetalRough {
     pub base: Spectrum,
     /// Metalness in [0, 1].
     pub metallic: f32,
-    /// GGX alpha = roughness^2 (below `SMOOTH_ALPHA`: a delta lobe).
+    /// GGX alpha = roughness^2 (below `SMOOTH_ALPHA`: a delta lobe); with anisotropy, the
+    /// width across the anisotropy direction (local y).
     pub alpha: f32,
+    /// KHR_materials_anisotropy strength s in [0, 1]: along local x, the anisotropy
+    /// direction, the base's GGX lobes (metal, dielectric specular, interface) have width
+    /// mix(alpha, 1, s^2). The caller aligns the local frame's x with that direction.
+    pub anisotropy: f32,
     /// Dielectric F0: ((ior - 1) / (ior + 1))^2 x specularColor, clamped to 1.
     pub dielectric_f0: Spectrum,
     /// KHR_materials_specular specularFactor: weight of the dielectric layer.
@@ -64,6 +80,14 @@ pub struct MetalRough {
     pub clearcoat: f32,
     /// GGX alpha of the clearcoat (below `SMOOTH_ALPHA`: a delta lobe).
     pub clearcoat_alpha: f32,
+    /// The clearcoat's unit normal in the local frame, above it (+z: the base's normal).
+    pub clearcoat_normal: Vec3,
+    /// KHR_materials_iridescence factor in [0, 1] (0: no thin film).
+    pub iridescence: f32,
+    /// Index of refraction of the thin film.
+    pub film_ior: f32,
+    /// Thickness of the thin film, nm.
+    pub film_thickness: f32,
     /// KHR_materials_sheen colour (zero: no sheen).
     pub sheen: Spectrum,
     /// Sheen alpha (sheenRoughness^2).
@@ -81,6 +105,7 @@ impl Default for MetalRough {
             base: Spectrum::ONE,
             metallic: 0.0,
             alpha: 1.0,
+            anisotropy: 0.0,
             dielectric_f0: Spectrum::splat(CLEARCOAT_F0),
             specular: 1.0,
             specular_tint: Spectrum::ONE,
@@ -89,6 +114,10 @@ impl Default for MetalRough {
             thin: true,
             clearcoat: 0.0,
             clearcoat_alpha: 1.0,
+            clearcoat_normal: Vec3::Z,
+            iridescence: 0.0,
+            film_ior: 1.3,
+            film_thickness: 400.0,
             sheen: Spectrum::ZERO,
             sheen_alpha: 0.25,
             diffuse_transmission: 0.0,
@@ -137,20 +166,32 @@ struct Deltas {
     reflection: f32,
     transmission: f32,
     interface_reflectance: f32,
+    /// The probability of a smooth clearcoat's mirror direction about its tilted normal.
+    coat: f32,
 }
 
 impl MetalRough {
+    /// Width of the base's lobes along the anisotropy direction (local x): alpha without
+    /// anisotropy.
+    fn alpha_x(&self) -> f32 {
+        self.alpha + (1.0 - self.alpha) * (self.anisotropy * self.anisotropy)
+    }
+
     fn ggx(&self) -> Ggx {
-        Ggx { alpha: self.alpha }
+        Ggx { alpha_x: self.alpha_x(), alpha_y: self.alpha }
     }
 
+    /// Roughness of the energy-compensation tables, which are isotropic: an anisotropic
+    /// lobe reads them at the roughness of the isotropic lobe with the same
+    /// alpha_x alpha_y (the same D(n) at normal incidence), an approximation that is
+    /// exact at strength 0 and whose error grows with the aspect ratio alpha_x / alpha_y.
     fn roughness(&self) -> f32 {
-        self.alpha.sqrt()
+        if self.anisotropy == 0.0 { self.alpha.sqrt() } else { (self.alpha_x() * self.alpha).sqrt().sqrt() }
     }
 
-    /// Whether the base's GGX lobes are deltas.
+    /// Whether the base's GGX lobes are deltas (narrow in both directions).
     fn smooth(&self) -> bool {
-        is_smooth(self.alpha)
+        is_smooth(self.alpha_x())
     }
 
     /// Whether the interface's lobes are deltas: it is smooth, or index-matched (between
@@ -170,16 +211,115 @@ impl MetalRough {
         self.clearcoat > 0.0 && is_smooth(self.clearcoat_alpha)
     }
 
+    /// Whether the clearcoat's normal is not the base's.
+    fn coat_tilted(&self) -> bool {
+        self.clearcoat_normal != Vec3::Z
+    }
+
+    /// Whether the clearcoat can reflect light arriving from `wo`: it is not tilted, or wo
+    /// is above it and, if smooth, its mirror direction above the base.
+    fn coat_reflects(&self, wo: Vec3) -> bool {
+        let n = self.clearcoat_normal;
+        !self.coat_tilted() || (wo.dot(n) > 0.0 && (!self.smooth_coat() || reflect(wo, n).z > 0.0))
+    }
+
+    /// Cosine of `w` to the clearcoat's normal.
+    fn coat_cos(&self, w: Vec3) -> f32 {
+        if self.coat_tilted() { w.dot(self.clearcoat_normal) } else { w.z }
+    }
+
+    /// The smooth clearcoat's delta about its tilted normal, chosen with probability `p`:
+    /// f |cos| integrated over it (Fresnel at the cosine to the normal, under the sheen),
+    /// None where the mirror direction is below the base or wo below the coat.
+    #[cold]
+    #[inline(never)]
+    fn tilted_coat_delta(&self, wo: Vec3, p: f32) -> Option<BsdfSample> {
+        let n = self.clearcoat_normal;
+        let cos = wo.dot(n);
+        let wi = reflect(wo, n);
+        if cos <= 0.0 || wi.z <= 0.0 {
+            return None;
+        }
+        let (sheen_w, _) = self.layer_weights(wo, wi);
+        let f = self.clearcoat * (CLEARCOAT_F0 + (1.0 - CLEARCOAT_F0) * schlick_weight(cos)) * sheen_w;
+        let flags = LobeFlags::REFLECTION | LobeFlags::SPECULAR;
+        Some(BsdfSample { wi, weight: Spectrum::splat(f / p), pdf: p, flags, eta: 1.0 })
+    }
+
+    /// The rough clearcoat's f |cos| (cosine to its normal) at (wo, wi) with half vector
+    /// `h`, and the density of its VNDF sampling there.
+    fn coat_eval_pdf(&self, wo: Vec3, wi: Vec3, h: Vec3) -> (f32, f32) {
+        let coat = Ggx::isotropic(self.clearcoat_alpha);
+        let (wo_c, wi_c, h_c) = if self.coat_tilted() {
+            let frame = Frame::from_normal(self.clearcoat_normal);
+            (frame.to_local(wo), frame.to_local(wi), frame.to_local(h))
+        } else {
+            (wo, wi, h)
+        };
+        if wo_c.z <= 0.0 || wi_c.z <= 0.0 {
+            return (0.0, 0.0);
+        }
+        let dc = coat.d(h_c);
+        let fresnel = CLEARCOAT_F0 + (1.0 - CLEARCOAT_F0) * schlick_weight(wo.dot(h));
+        (self.clearcoat * fresnel * dc * coat.g2(wo_c, wi_c) / (4.0 * wo_c.z), coat.reflection_pdf(wo_c, dc))
+    }
+
+    /// A direction reflected about a visible normal of the rough clearcoat, above the base
+    /// and the coat.
+    fn sample_coat(&self, wo: Vec3, u: Vec2) -> Option<Vec3> {
+        if self.coat_tilted() {
+            return self.sample_tilted_coat(wo, u);
+        }
+        Some(reflect(wo, Ggx::isotropic(self.clearcoat_alpha).sample_visible_normal(wo, u))).filter(|w| w.z > 0.0)
+    }
+
+    /// `sample_coat` about a tilted normal (kept out of line: most coats are not tilted).
+    #[cold]
+    #[inline(never)]
+    fn sample_tilted_coat(&self, wo: Vec3, u: Vec2) -> Option<Vec3> {
+        let coat = Ggx::isotropic(self.clearcoat_alpha);
+        let frame = Frame::from_normal(self.clearcoat_normal);
+        let wo_c = frame.to_local(wo);
+        if wo_c.z <= 0.0 {
+            return None;
+        }
+        let wi = reflect(wo, frame.to_world(coat.sample_visible_normal(wo_c, u)));
+        (wi.z > 0.0 && wi.dot(self.clearcoat_normal) > 0.0).then_some(wi)
+    }
+
     /// The transmitting interface. Between equal indices (eta 1) light goes straight through
     /// whatever the microfacets, which is the thin wall's lobe; the refraction lobe's half
     /// vector would be undefined there.
     fn interface(&self) -> Interface {
         let thin = self.thin || (self.eta - 1.0).abs() < 1e-3;
-        Interface { alpha: self.alpha, eta: self.eta, thin, specular: self.specular }
+        Interface { ggx: self.ggx(), eta: self.eta, thin, specular: self.specular }
     }
 
     fn sheen_lobe(&self) -> Sheen {
         Sheen { color: self.sheen, alpha: self.sheen_alpha }
+    }
+
+    /// Fresnel reflectance at cosine `cos` of a layer with normal-incidence reflectance
+    /// `f0`: Schlick's, mixed with the thin film's by the iridescence factor.
+    fn fresnel(&self, f0: Spectrum, cos: f32) -> Spectrum {
+        let schlick = schlick(f0, cos);
+        if self.iridescence > 0.0 {
+            schlick * (1.0 - self.iridescence) + self.film(f0, cos) * self.iridescence
+        } else {
+            schlick
+        }
+    }
+
+    /// The thin film's RGB reflectance at cosine `cos` over a base whose F0 is `f0`, each
+    /// channel over the index its F0 implies (one evaluation when `f0` is grey).
+    fn film(&self, f0: Spectrum, cos: f32) -> Spectrum {
+        let rgb = f0.to_rgb();
+        let over =
+            |f: f32| thin_film::reflectance_rgb(cos, self.film_ior, thin_film::f0_to_ior(f), self.film_thickness);
+        if rgb.x == rgb.y && rgb.y == rgb.z {
+            return Spectrum::from_rgb(over(rgb.x));
+        }
+        Spectrum::from_rgb(Vec3::new(over(rgb.x).x, over(rgb.y).y, over(rgb.z).z))
     }
 
     /// Whether any light passes to the other side.
@@ -248,7 +388,7 @@ impl MetalRough {
         if s > 0.0 { s * self.sheen_lobe().albedo(mu) } else { 0.0 }
     }
 
-    /// Albedo of the clearcoat at cosine `mu` (0 without clearcoat).
+    /// Albedo of the clearcoat at cosine `mu` to its normal (0 without clearcoat).
     fn clearcoat_albedo(&self, mu: f32) -> f32 {
         if self.clearcoat > 0.0 {
             self.clearcoat * ggx_albedo(mu, self.clearcoat_alpha.sqrt(), CLEARCOAT_F0)
@@ -257,10 +397,15 @@ impl MetalRough {
         }
     }
 
-    /// The shares of (wo, wi) that reach below sheen and below clearcoat.
-    fn layer_weights(&self, mu_o: f32, mu_i: f32) -> (f32, f32) {
-        let sheen = 1.0 - self.sheen_albedo(mu_o).max(self.sheen_albedo(mu_i));
-        let coat = 1.0 - self.clearcoat_albedo(mu_o).max(self.clearcoat_albedo(mu_i));
+    /// The shares of (wo, wi) that reach below sheen and below clearcoat (each at the
+    /// directions' cosines to its normal, wi's on either side).
+    fn layer_weights(&self, wo: Vec3, wi: Vec3) -> (f32, f32) {
+        let sheen = 1.0 - self.sheen_albedo(wo.z).max(self.sheen_albedo(wi.z.abs()));
+        let coat = if self.clearcoat > 0.0 {
+            1.0 - self.clearcoat_albedo(self.coat_cos(wo)).max(self.clearcoat_albedo(self.coat_cos(wi).abs()))
+        } else {
+            1.0
+        };
         (sheen, coat)
     }
 
@@ -293,7 +438,10 @@ impl MetalRough {
         if self.specular <= 0.0 {
             return 1.0;
         }
-        let f0 = self.dielectric_f0.max_element();
+        let mut f0 = self.dielectric_f0.max_element();
+        if self.iridescence > 0.0 {
+            f0 += (self.film(self.dielectric_f0, 1.0).max_element() - f0) * self.iridescence;
+        }
         let (e_o, avg) = self.layer_albedo(mu_o, f0);
         let (e_i, _) = self.layer_albedo(mu_i, f0);
         if 1.0 - avg <= 1e-6 {
@@ -310,12 +458,12 @@ impl MetalRough {
         let (ms, a_avg) = self.multiple_scattering(wo.z, wi.z);
         let ms = ms * wi.z;
         let metal = if self.metallic > 0.0 {
-            schlick(self.base, voh) * single + multiple_scattering_fresnel(self.base, a_avg) * ms
+            self.fresnel(self.base, voh) * single + multiple_scattering_fresnel(self.base, a_avg) * ms
         } else {
             Spectrum::ZERO
         };
         let dielectric = if self.metallic < 1.0 && self.transmission < 1.0 {
-            let specular = (schlick(self.dielectric_f0, voh) * single
+            let specular = (self.fresnel(self.dielectric_f0, voh) * single
                 + multiple_scattering_fresnel(self.dielectric_f0, a_avg) * ms)
                 * self.specular;
             let reflected = 1.0 - self.diffuse_transmission;
@@ -351,7 +499,7 @@ impl MetalRough {
     }
 
     fn eval_pdf_with(&self, p: &Lobes, wo: Vec3, wi: Vec3, mode: TransportMode) -> (Spectrum, f32) {
-        let (sheen_w, coat_w) = self.layer_weights(wo.z, wi.z.abs());
+        let (sheen_w, coat_w) = self.layer_weights(wo, wi);
         let (interface, interface_pdf) = if self.refracts() && !self.smooth_interface() {
             let tint = if wi.z > 0.0 { self.specular_tint } else { self.base };
             let (f, pdf) = self.interface().eval_pdf(wo, wi, mode);
@@ -373,11 +521,9 @@ impl MetalRough {
         let mut pdf =
             interface_pdf + p.cosine * warp::cos_hemisphere_pdf(wi.z) + p.specular * ggx.reflection_pdf(wo, d);
         if self.clearcoat > 0.0 && !self.smooth_coat() {
-            let coat = Ggx { alpha: self.clearcoat_alpha };
-            let dc = coat.d(h);
-            let fresnel = CLEARCOAT_F0 + (1.0 - CLEARCOAT_F0) * schlick_weight(wo.dot(h));
-            f += Spectrum::splat(self.clearcoat * fresnel * dc * coat.g2(wo, wi) / (4.0 * wo.z));
-            pdf += p.clearcoat * coat.reflection_pdf(wo, dc);
+            let (coat, coat_pdf) = self.coat_eval_pdf(wo, wi, h);
+            f += Spectrum::splat(coat);
+            pdf += p.clearcoat * coat_pdf;
         }
         f *= sheen_w;
         if self.sheen.max_element() > 0.0 {
@@ -390,7 +536,8 @@ impl MetalRough {
     fn lobes(&self, wo: Vec3) -> Lobes {
         let mu = wo.z;
         let sheen = self.sheen_albedo(mu);
-        let coat = self.clearcoat_albedo(mu);
+        let coat =
+            if self.clearcoat > 0.0 && self.coat_reflects(wo) { self.clearcoat_albedo(self.coat_cos(wo)) } else { 0.0 };
         let below = (1.0 - sheen) * (1.0 - coat);
         let (m, tr) = (self.metallic, if self.refracts() { self.transmission } else { 0.0 });
         let dt = if self.diffuse_transmits() { self.diffuse_transmission } else { 0.0 };
@@ -423,7 +570,7 @@ impl MetalRough {
 
     /// The delta lobes' probabilities at wo under the technique probabilities `p`.
     fn deltas(&self, p: &Lobes, wo: Vec3) -> Deltas {
-        let mut d = Deltas { reflection: 0.0, transmission: 0.0, interface_reflectance: 0.0 };
+        let mut d = Deltas { reflection: 0.0, transmission: 0.0, interface_reflectance: 0.0, coat: 0.0 };
         if self.smooth() {
             d.reflection += p.specular;
         }
@@ -434,7 +581,11 @@ impl MetalRough {
             d.transmission = p.interface * (1.0 - r);
         }
         if self.smooth_coat() {
-            d.reflection += p.clearcoat;
+            if self.coat_tilted() {
+                d.coat = p.clearcoat;
+            } else {
+                d.reflection += p.clearcoat;
+            }
         }
         d
     }
@@ -443,24 +594,24 @@ impl MetalRough {
     pub fn specular_probability(&self, wo: Vec3) -> f32 {
         let p = self.lobes(wo);
         let d = self.deltas(&p, wo);
-        d.reflection + d.transmission
+        d.reflection + d.transmission + d.coat
     }
 
     /// f |cos| integrated over the mirror direction's delta: what the smooth lobes reflect.
     fn delta_reflection(&self, wo: Vec3, r: f32) -> Spectrum {
         let mu = wo.z;
-        let (sheen_w, coat_w) = self.layer_weights(mu, mu);
+        let (sheen_w, coat_w) = self.layer_weights(wo, mirror(wo));
         let mut base = Spectrum::ZERO;
         let (m, tr) = (self.metallic, if self.refracts() { self.transmission } else { 0.0 });
         if self.smooth() {
-            let dielectric = schlick(self.dielectric_f0, mu) * (self.specular * (1.0 - tr));
-            base = schlick(self.base, mu) * m + dielectric * (1.0 - m);
+            let dielectric = self.fresnel(self.dielectric_f0, mu) * (self.specular * (1.0 - tr));
+            base = self.fresnel(self.base, mu) * m + dielectric * (1.0 - m);
         }
         if self.smooth_interface() && tr > 0.0 {
             base += self.specular_tint * (r * tr * (1.0 - m));
         }
         let mut f = base * coat_w;
-        if self.smooth_coat() {
+        if self.smooth_coat() && !self.coat_tilted() {
             f += Spectrum::splat(self.clearcoat * (CLEARCOAT_F0 + (1.0 - CLEARCOAT_F0) * schlick_weight(mu)));
         }
         f * sheen_w
@@ -468,7 +619,7 @@ impl MetalRough {
 
     /// f |cos| integrated over the transmitted direction `wi`'s delta.
     fn delta_transmission(&self, wo: Vec3, wi: Vec3, r: f32, mode: TransportMode) -> Spectrum {
-        let (sheen_w, coat_w) = self.layer_weights(wo.z, wi.z.abs());
+        let (sheen_w, coat_w) = self.layer_weights(wo, wi);
         let share = (1.0 - r) * self.transmission * (1.0 - self.metallic) * self.interface().transmission_scale(mode);
         self.base * (share * sheen_w * coat_w)
     }
@@ -504,6 +655,10 @@ impl MetalRough {
             return Some(BsdfSample { wi, weight, pdf: deltas.transmission, flags, eta: interface.crossed_eta() });
         }
         x -= deltas.transmission;
+        if x < deltas.coat {
+            return self.tilted_coat_delta(wo, deltas.coat);
+        }
+        x -= deltas.coat;
         let p_interface = if self.smooth_interface() { 0.0 } else { p.interface };
         let p_specular = if self.smooth() { 0.0 } else { p.specular };
         let p_coat = if self.smooth_coat() { 0.0 } else { p.clearcoat };
@@ -513,7 +668,7 @@ impl MetalRough {
         } else if x < p_interface + p_specular {
             (above(reflect(wo, self.ggx().sample_visible_normal(wo, u)))?, true)
         } else if x < p_interface + p_specular + p_coat {
-            (above(reflect(wo, Ggx { alpha: self.clearcoat_alpha }.sample_visible_normal(wo, u)))?, true)
+            (self.sample_coat(wo, u)?, true)
         } else if x < p_interface + p_specular + p_coat + p.diffuse_transmission {
             let w = warp::cos_hemisphere(u);
             ((w.z > 0.0).then_some(Vec3::new(w.x, w.y, -w.z))?, false)

@@ -20,6 +20,7 @@ mod metal_rough;
 pub mod microfacet;
 pub mod sheen;
 mod sheen_table;
+pub mod thin_film;
 
 pub use diffuse::Lambert;
 pub use metal_rough::MetalRough;

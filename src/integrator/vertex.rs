@@ -52,14 +52,20 @@ impl<'a> Vertex<'a> {
     ) -> Self {
         let wo_world = -d;
         let front = surface.ng.dot(wo_world) > 0.0;
-        let frame = shading_frame(&surface, front, wo_world);
+        let mut frame = shading_frame(&surface, front, wo_world);
         let material = &scene.materials[surface.material as usize];
         let outside_ior =
             if scene.features.volumes { media.outside_ior(&scene.materials, surface.material, front) } else { 1.0 };
         // A dispersive interface bends each wavelength its own way: the hero's index is
         // used and the other wavelengths end (pbrt-v4's TerminateSecondary).
         let wavelength = wl.hero().filter(|_| scene.features.dispersion && material.is_dispersive());
-        let bsdf = material.bsdf(scene.refs(), &surface, (front, outside_ior), wavelength);
+        let bsdf = material.bsdf(
+            scene.refs(),
+            &surface,
+            (&mut frame, || scene.tangent_space(&surface)),
+            (front, outside_ior),
+            wavelength,
+        );
         if wavelength.is_some() {
             wl.terminate_secondary();
         }

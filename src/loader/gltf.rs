@@ -40,6 +40,8 @@ const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_clearcoat",
     "KHR_materials_diffuse_transmission",
     "KHR_materials_sheen",
+    "KHR_materials_anisotropy",
+    "KHR_materials_iridescence",
     "KHR_texture_transform",
     "KHR_lights_punctual",
     "KHR_xmp",
@@ -366,12 +368,12 @@ fn primitive_shape(
         check_attribute_type(&Semantic::Weights(u32::MAX), i, quantized)?;
     }
     let Some(positions) = prim.get(&Semantic::Positions) else { return Ok(None) };
-    let normal_mapped = prim.material().normal_texture().is_some();
+    let tangent_space = needs_tangents(&prim.material());
     let normals = prim.get(&Semantic::Normals);
     let uvs = prim.get(&Semantic::TexCoords(0));
     let uvs1 = prim.get(&Semantic::TexCoords(1));
     let colors = prim.get(&Semantic::Colors(0));
-    let tangents = prim.get(&Semantic::Tangents).filter(|_| normal_mapped);
+    let tangents = prim.get(&Semantic::Tangents).filter(|_| tangent_space);
     let read: Vec<&gltf::Accessor> =
         [Some(&positions), normals.as_ref(), uvs.as_ref(), uvs1.as_ref(), colors.as_ref(), tangents.as_ref()]
             .into_iter()
@@ -397,7 +399,7 @@ fn primitive_shape(
     }
     let index_count = indices.as_ref().map_or(vertices, |i| i.count()) as u64;
     let triangles = if mode == Mode::Triangles { index_count / 3 } else { index_count.saturating_sub(2) };
-    let generates_tangents = normal_mapped && tangents.is_none() && uvs.is_some();
+    let generates_tangents = tangent_space && tangents.is_none() && uvs.is_some();
     let attributes = Attributes {
         normals: normals.is_some(),
         uvs: uvs.is_some(),
@@ -669,7 +671,7 @@ fn convert(doc: &Document, buffers: &[buffer::Data], images: Vec<Image>, name: S
             }
             continue;
         }
-        let normal_mapped = prim.material().normal_texture().is_some();
+        let tangent_space = needs_tangents(&prim.material());
         let weights = node.weights().or(mesh.weights()).unwrap_or_default();
         if prim.morph_targets().len() > 0 {
             warnings.add("morph targets are applied at the node's or mesh's weights (animation is not supported)");
@@ -679,7 +681,7 @@ fn convert(doc: &Document, buffers: &[buffer::Data], images: Vec<Image>, name: S
         }
         let space = if many { DMat4::IDENTITY } else { world };
         let converted =
-            convert_primitive(&prim, buffers, space, default_material, normal_mapped, weights, &mut warnings)?;
+            convert_primitive(&prim, buffers, space, default_material, tangent_space, weights, &mut warnings)?;
         let index = converted.map(|(m, p)| {
             let instances = if many { vec![world] } else { Vec::new() };
             placed.push((MeshDesc { name: mesh.name().unwrap_or("mesh").into(), ..m }, p, instances));
@@ -913,6 +915,15 @@ fn volume_factors(
     factors
 }
 
+/// Whether primitives of material `m` need tangents: for its normal map, its anisotropy
+/// direction or its clearcoat's normal map.
+fn needs_tangents(m: &gltf::Material) -> bool {
+    m.normal_texture().is_some()
+        || m.extension_value("KHR_materials_anisotropy").is_some_and(|a| factor(a, "anisotropyStrength", 0.0) > 0.0)
+        || m.extension_value("KHR_materials_clearcoat")
+            .is_some_and(|c| factor(c, "clearcoatFactor", 0.0) > 0.0 && c.get("clearcoatNormalTexture").is_some())
+}
+
 fn convert_material(m: &gltf::Material, texture_count: usize, warnings: &mut Warnings) -> Material {
     let pbr = m.pbr_metallic_roughness();
     let [r, g, b, a] = pbr.base_color_factor();
@@ -992,9 +1003,31 @@ fn convert_material(m: &gltf::Material, texture_count: usize, warnings: &mut War
         mat.clearcoat_tex = texture_json(c.get("clearcoatTexture"), texture_count, warnings);
         mat.clearcoat_roughness = factor(c, "clearcoatRoughnessFactor", 0.0);
         mat.clearcoat_roughness_tex = texture_json(c.get("clearcoatRoughnessTexture"), texture_count, warnings);
-        if c.get("clearcoatNormalTexture").is_some() {
-            warnings.add("clearcoat normal textures are not supported: the clearcoat uses the base normal");
+        let normal = c.get("clearcoatNormalTexture");
+        mat.clearcoat_normal_tex = texture_json(normal, texture_count, warnings);
+        mat.clearcoat_normal_scale = normal.map_or(1.0, |n| factor(n, "scale", 1.0));
+    }
+    if let Some(a) = m.extension_value("KHR_materials_anisotropy") {
+        let strength = factor(a, "anisotropyStrength", 0.0);
+        mat.anisotropy_strength = in_range(&mat.name, "anisotropyStrength", strength, (0.0, 1.0), None, warnings);
+        mat.anisotropy_rotation = factor(a, "anisotropyRotation", 0.0);
+        mat.anisotropy_tex = texture_json(a.get("anisotropyTexture"), texture_count, warnings);
+    }
+    if let Some(i) = m.extension_value("KHR_materials_iridescence") {
+        let name = &mat.name;
+        let iridescence = factor(i, "iridescenceFactor", 0.0);
+        mat.iridescence = in_range(name, "iridescenceFactor", iridescence, (0.0, 1.0), None, warnings);
+        mat.iridescence_tex = texture_json(i.get("iridescenceTexture"), texture_count, warnings);
+        // The schema spells it iridescenceIor, the extension's README iridescenceIOR.
+        let ior = factor(i, "iridescenceIor", factor(i, "iridescenceIOR", 1.3));
+        mat.iridescence_ior = in_range(name, "iridescenceIor", ior, (1.0, f32::INFINITY), Some(1.3), warnings);
+        for (key, default, slot) in [
+            ("iridescenceThicknessMinimum", 100.0, &mut mat.iridescence_thickness_min),
+            ("iridescenceThicknessMaximum", 400.0, &mut mat.iridescence_thickness_max),
+        ] {
+            *slot = in_range(name, key, factor(i, key, default), (0.0, f32::INFINITY), Some(default), warnings);
         }
+        mat.iridescence_thickness_tex = texture_json(i.get("iridescenceThicknessTexture"), texture_count, warnings);
     }
     if let Some(sh) = m.extension_value("KHR_materials_sheen") {
         let color = sh.get("sheenColorFactor").and_then(Value::as_array).map_or(Vec3::ZERO, |a| {
@@ -1019,6 +1052,25 @@ fn serde_json_value(n: &gltf::material::NormalTexture) -> Value {
     info
 }
 
+/// `v` if it lies in [lo, hi]; otherwise, with a warning naming the material and the
+/// property `key`, `fallback`, or `v` clamped into the range if there is none.
+fn in_range(
+    material: &str,
+    key: &str,
+    v: f32,
+    (lo, hi): (f32, f32),
+    fallback: Option<f32>,
+    warnings: &mut Warnings,
+) -> f32 {
+    if (lo..=hi).contains(&v) {
+        return v;
+    }
+    let used = fallback.unwrap_or(v.clamp(lo, hi));
+    let range = if hi.is_finite() { format!("outside [{lo}, {hi}]") } else { format!("below {lo}") };
+    warnings.add(format!("material \"{material}\": {key} {v} is {range}: {used} used"));
+    used
+}
+
 /// Clamps factors into their ranges; NaN (from hostile JSON) becomes the default.
 fn sanitise(m: &mut Material) {
     let unit = |v: f32, default: f32| if v.is_nan() { default } else { v.clamp(0.0, 1.0) };
@@ -1030,6 +1082,17 @@ fn sanitise(m: &mut Material) {
     m.clearcoat = unit(m.clearcoat, 0.0);
     m.clearcoat_roughness = unit(m.clearcoat_roughness, 0.0);
     m.sheen_roughness = unit(m.sheen_roughness, 0.0);
+    m.anisotropy_strength = unit(m.anisotropy_strength, 0.0);
+    m.iridescence = unit(m.iridescence, 0.0);
+    if !(m.iridescence_ior.is_finite() && m.iridescence_ior >= 1.0) {
+        m.iridescence_ior = 1.3;
+    }
+    let thickness = |t: f32, default: f32| if t.is_finite() && t >= 0.0 { t } else { default };
+    m.iridescence_thickness_min = thickness(m.iridescence_thickness_min, 100.0);
+    m.iridescence_thickness_max = thickness(m.iridescence_thickness_max, 400.0);
+    if !m.anisotropy_rotation.is_finite() {
+        m.anisotropy_rotation = 0.0;
+    }
     m.sheen_color = m.sheen_color.clamp(Vec3::ZERO, Vec3::ONE);
     if !(m.ior.is_finite() && m.ior >= 1.0) {
         m.ior = 1.5;
@@ -1090,7 +1153,7 @@ fn convert_primitive(
     buffers: &[buffer::Data],
     world: DMat4,
     default_material: u32,
-    normal_mapped: bool,
+    tangent_space: bool,
     weights: &[f32],
     warnings: &mut Warnings,
 ) -> Result<Option<(MeshDesc, Vec<DVec3>)>, String> {
@@ -1135,7 +1198,7 @@ fn convert_primitive(
     let colors = reader.read_colors(0).map(|c| c.into_rgba_f32().map(Vec4::from).collect::<Vec<_>>());
     let linear = DMat3::from_mat4(world);
     let handedness = world.determinant().signum() as f32;
-    let tangents = match read(Semantic::Tangents).filter(|_| normal_mapped) {
+    let tangents = match read(Semantic::Tangents).filter(|_| tangent_space) {
         Some(a) => Some({
             let tangents = attributes::read::<4>(&a, get).ok_or_else(|| unreadable(&a))?;
             let mut xyz: Vec<[f32; 3]> = tangents.iter().map(|t| [t[0], t[1], t[2]]).collect();
@@ -1175,9 +1238,12 @@ fn convert_primitive(
         variants: variants::mappings(prim, default_material, warnings),
         instances: Vec::new(),
     };
-    if normal_mapped && mesh.tangents.is_none() {
+    if tangent_space && mesh.tangents.is_none() {
         if mesh.uvs.is_none() {
-            warnings.add("a normal-mapped primitive has no TEXCOORD_0: normal map ignored");
+            warnings.add(
+                "a primitive that needs tangents (normal map, anisotropy, clearcoat normal map) has neither \
+                 TANGENT nor TEXCOORD_0: normal maps ignored, anisotropy along an arbitrary direction",
+            );
             return Ok(Some((mesh, positions)));
         }
         let (mesh, positions) = super::tangents::generate(mesh, positions);

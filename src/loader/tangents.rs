@@ -1,4 +1,4 @@
-//! MikkTSpace tangents for normal-mapped meshes that do not supply them, with
+//! MikkTSpace tangents for meshes that need them (normal maps, anisotropy) and do not supply them, with
 //! bevy_mikktspace (the algorithm normal-map bakers use, so maps line up): the mesh is
 //! unwelded per triangle corner, since MikkTSpace may give one vertex different tangents
 //! in different triangles.

@@ -25,6 +25,16 @@ impl Frame {
         Self { s, t, n }
     }
 
+    /// The frame about the same normal whose +x is `axis` projected onto the tangent plane
+    /// (+y = n x axis, right-handed); this frame if `axis` has no part in that plane.
+    pub fn aligned(&self, axis: Vec3) -> Self {
+        let s = (axis - self.n * self.n.dot(axis)).normalize_or_zero();
+        if s == Vec3::ZERO {
+            return *self;
+        }
+        Self { s, t: self.n.cross(s), n: self.n }
+    }
+
     /// Expresses a world-space vector in this frame.
     pub fn to_local(&self, v: Vec3) -> Vec3 {
         Vec3::new(v.dot(self.s), v.dot(self.t), v.dot(self.n))
@@ -49,6 +59,9 @@ mod tests {
             assert!(f.s.cross(f.t).dot(n) > 0.999, "right-handed");
             let v = Vec3::new(0.2, 0.7, -0.4);
             assert!((f.to_world(f.to_local(v)) - v).length() < 1e-6);
+            let a = f.aligned(Vec3::new(0.3, 0.9, -0.2));
+            assert!(a.s.cross(a.t).dot(n) > 0.999 && a.s.dot(n).abs() < 1e-6 && (a.s.length() - 1.0).abs() < 1e-6);
+            assert!((a.to_world(a.to_local(v)) - v).length() < 1e-6);
         }
     }
 }

@@ -4,6 +4,7 @@
 use super::texture::{ColorSpace, Image, Texture};
 use super::{Features, Surface};
 use crate::bsdf::{Bsdf, Lambert, MetalRough, measured::MerlTable, sheen::MIN_SHEEN_ALPHA};
+use crate::math::frame::Frame;
 use crate::medium::Volume;
 use crate::spectrum::Spectrum;
 use glam::{Affine2, Vec2, Vec3, Vec4, Vec4Swizzles};
@@ -170,6 +171,29 @@ pub struct Material {
     pub clearcoat_roughness: f32,
     /// Texture whose G channel scales `clearcoat_roughness`.
     pub clearcoat_roughness_tex: Option<TexRef>,
+    /// The clearcoat's tangent-space normal map (without it, and with a base normal map,
+    /// the clearcoat keeps the unmapped normal, as the extension says).
+    pub clearcoat_normal_tex: Option<TexRef>,
+    /// Scale of the clearcoat normal map's X and Y.
+    pub clearcoat_normal_scale: f32,
+    /// KHR_materials_anisotropy anisotropyStrength in [0, 1] (0: isotropic).
+    pub anisotropy_strength: f32,
+    /// anisotropyRotation: radians counter-clockwise from the tangent.
+    pub anisotropy_rotation: f32,
+    /// Texture whose RG give the direction in [-1, 1] tangent space and B scales the strength.
+    pub anisotropy_tex: Option<TexRef>,
+    /// KHR_materials_iridescence iridescenceFactor (0: no thin film).
+    pub iridescence: f32,
+    /// Texture whose R channel scales `iridescence`.
+    pub iridescence_tex: Option<TexRef>,
+    /// iridescenceIor: index of refraction of the film.
+    pub iridescence_ior: f32,
+    /// iridescenceThicknessMinimum, nm.
+    pub iridescence_thickness_min: f32,
+    /// iridescenceThicknessMaximum, nm: the thickness without a thickness texture.
+    pub iridescence_thickness_max: f32,
+    /// Texture whose G channel chooses the thickness between minimum and maximum.
+    pub iridescence_thickness_tex: Option<TexRef>,
     /// KHR_materials_sheen colour (zero: no sheen).
     pub sheen_color: Vec3,
     /// sRGB texture scaling `sheen_color`.
@@ -241,6 +265,17 @@ impl Default for Material {
             clearcoat_tex: None,
             clearcoat_roughness: 0.0,
             clearcoat_roughness_tex: None,
+            clearcoat_normal_tex: None,
+            clearcoat_normal_scale: 1.0,
+            anisotropy_strength: 0.0,
+            anisotropy_rotation: 0.0,
+            anisotropy_tex: None,
+            iridescence: 0.0,
+            iridescence_tex: None,
+            iridescence_ior: 1.3,
+            iridescence_thickness_min: 100.0,
+            iridescence_thickness_max: 400.0,
+            iridescence_thickness_tex: None,
             sheen_color: Vec3::ZERO,
             sheen_color_tex: None,
             sheen_roughness: 0.0,
@@ -343,8 +378,12 @@ impl Material {
         self.alpha_mode != AlphaMode::Opaque || !self.double_sided
     }
 
-    fn textures(&self) -> [Option<TexRef>; 13] {
+    fn textures(&self) -> [Option<TexRef>; 17] {
         [
+            self.clearcoat_normal_tex,
+            self.iridescence_tex,
+            self.iridescence_thickness_tex,
+            self.anisotropy_tex,
             self.diffuse_transmission_tex,
             self.diffuse_transmission_color_tex,
             self.base_color_tex,
@@ -377,8 +416,13 @@ impl Material {
         self.alpha * tex * surface.color.w
     }
 
-    /// The BSDF at a surface point, seen from its front (`front`) or back side, with
-    /// `outside_ior` the index of the medium on the side away from this material's volume.
+    /// The BSDF at a surface point in the shading `frame`, seen from its front (`front`) or
+    /// back side, with `outside_ior` the index of the medium on the side away from this
+    /// material's volume. `basis` gives the interpolated tangent and the interpolated normal
+    /// before normal mapping (asked for only by the two things that need them): an
+    /// anisotropic material turns the frame about its normal so that +x is the anisotropy
+    /// direction the tangent places, and a clearcoat with its own normal map, or under a
+    /// mapped base, gets its normal from them (`clearcoat_normal`).
     /// Colours become spectra here (`Spectrum::from_rgb`); GGX alphas below
     /// `bsdf::SMOOTH_ALPHA` become delta lobes in the BSDF. `features` are the scene's: in
     /// a scene without textures or glossy lobes their checks are skipped.
@@ -387,6 +431,7 @@ impl Material {
         &self,
         scene: SceneRefs<'_>,
         surface: &Surface,
+        (frame, basis): (&mut Frame, impl FnOnce() -> (Vec4, Vec3)),
         (front, outside_ior): (bool, f32),
         wavelength: Option<f32>,
     ) -> Bsdf<'_> {
@@ -439,10 +484,31 @@ impl Material {
             (Some(_), false) => outside_ior / ior,
         };
         let alpha = |r: f32| (r * r).clamp(0.0, 1.0);
+        let mut anisotropy = self.anisotropy_strength;
+        let coat_mapped = clearcoat > 0.0 && (self.clearcoat_normal_tex.is_some() || self.normal_tex.is_some());
+        let basis = (anisotropy > 0.0 || coat_mapped).then(basis);
+        if let Some((tangent, _)) = basis.filter(|_| anisotropy > 0.0) {
+            let texel = lookup(self.anisotropy_tex, ColorSpace::Linear);
+            let direction = texel.map_or(Vec2::X, |t| (t.xy() * 2.0 - 1.0).normalize_or(Vec2::X));
+            anisotropy *= texel.map_or(1.0, |t| t.z);
+            *frame = frame.aligned(self.anisotropy_axis(surface.ns, tangent, direction));
+        }
+        let clearcoat_normal = match basis.filter(|_| coat_mapped) {
+            Some(basis) => {
+                let map = lookup(self.clearcoat_normal_tex, ColorSpace::Linear);
+                self.clearcoat_normal(frame, basis, map, front)
+            }
+            None => Vec3::Z,
+        };
+        let iridescence = self.iridescence * lookup(self.iridescence_tex, ColorSpace::Linear).map_or(1.0, |t| t.x);
+        let (thin, thick) = (self.iridescence_thickness_min, self.iridescence_thickness_max);
+        let film_thickness =
+            lookup(self.iridescence_thickness_tex, ColorSpace::Linear).map_or(thick, |t| thin + (thick - thin) * t.y);
         Bsdf::MetalRough(MetalRough {
             base: Spectrum::from_rgb(base.clamp(Vec3::ZERO, Vec3::ONE)),
             metallic: metallic.clamp(0.0, 1.0),
             alpha: alpha(roughness),
+            anisotropy: anisotropy.clamp(0.0, 1.0),
             dielectric_f0: Spectrum::from_rgb((f0 * specular_tint).min(Vec3::ONE)),
             specular: specular.clamp(0.0, 1.0),
             specular_tint: Spectrum::from_rgb(specular_tint),
@@ -451,11 +517,46 @@ impl Material {
             thin: self.volume.is_none(),
             clearcoat: clearcoat.clamp(0.0, 1.0),
             clearcoat_alpha: alpha(clearcoat_roughness),
+            clearcoat_normal,
+            iridescence: iridescence.clamp(0.0, 1.0),
+            film_ior: self.iridescence_ior,
+            film_thickness: film_thickness.max(0.0),
             sheen: Spectrum::from_rgb(sheen.clamp(Vec3::ZERO, Vec3::ONE)),
             sheen_alpha: (sheen_roughness * sheen_roughness).clamp(MIN_SHEEN_ALPHA, 1.0),
             diffuse_transmission: diffuse_transmission.clamp(0.0, 1.0),
             diffuse_transmission_color: Spectrum::from_rgb(diffuse_transmission_color.clamp(Vec3::ZERO, Vec3::ONE)),
         })
+    }
+
+    /// The clearcoat's normal in `frame` (its normal on the side seen, `front` or not): the
+    /// interpolated normal of `(tangent, normal)` perturbed by the clearcoat normal map's
+    /// `texel` (glTF convention: RGB in [0, 1] to [-1, 1], X and Y times the scale), or left
+    /// unperturbed without one. +z where it would face away from the frame's normal.
+    fn clearcoat_normal(
+        &self,
+        frame: &Frame,
+        (tangent, normal): (Vec4, Vec3),
+        texel: Option<Vec4>,
+        front: bool,
+    ) -> Vec3 {
+        let scale = Vec3::new(self.clearcoat_normal_scale, self.clearcoat_normal_scale, 1.0);
+        let world = match texel {
+            Some(t) => super::normal_mapped(normal, tangent, (t.xyz() * 2.0 - 1.0) * scale),
+            None => normal,
+        };
+        let local = frame.to_local(if front { world } else { -world }).normalize_or_zero();
+        if local.z > 0.0 { local } else { Vec3::Z }
+    }
+
+    /// World direction of the anisotropy: the tangent-space `direction` turned by
+    /// anisotropyRotation, in the frame of `tangent`, the bitangent (sign x n x t) and the
+    /// shading normal `n`. Zero without tangents (the frame then stays as it is).
+    fn anisotropy_axis(&self, n: Vec3, tangent: Vec4, direction: Vec2) -> Vec3 {
+        let (sin, cos) = self.anisotropy_rotation.sin_cos();
+        let d = Vec2::new(cos * direction.x - sin * direction.y, sin * direction.x + cos * direction.y);
+        let t = tangent.xyz();
+        let sign = if tangent.w < 0.0 { -1.0 } else { 1.0 };
+        t * d.x + sign * n.cross(t) * d.y
     }
 
     /// What an unlit material shows: base colour x vertex colour x base colour texture. Kept

@@ -100,7 +100,8 @@ pub struct MeshDesc {
     pub uvs1: Option<Vec<Vec2>>,
     /// Linear vertex colours (COLOR_0, RGBA), if any.
     pub colors: Option<Vec<Vec4>>,
-    /// Tangents with the bitangent sign in w, if the mesh is normal-mapped.
+    /// Tangents with the bitangent sign in w, if its material has a normal map, anisotropy or
+    /// a clearcoat normal map.
     pub tangents: Option<Vec<Vec4>>,
     /// Triangle list; counter-clockwise triangles face the viewer.
     pub indices: Vec<u32>,
@@ -417,6 +418,20 @@ impl Scene {
                 surface.ns = normal_mapped(surface.ns, tangent, m * Vec3::new(scale, scale, 1.0));
             }
             surface
+        })
+    }
+
+    /// Interpolated tangent at `surface`, the bitangent sign in w; zero where its mesh has
+    /// none (only meshes whose material has a normal map, anisotropy or a clearcoat normal
+    /// map carry them). With it, the interpolated normal before normal mapping (the
+    /// geometric one where the vertex normals cancel).
+    pub fn tangent_space(&self, surface: &Surface) -> (Vec4, Vec3) {
+        let b = surface.b;
+        self.geometry.with_triangle(surface.tri, |_, a, extra| {
+            let tangent =
+                extra.map_or(Vec4::ZERO, |e| e.tangents[0] * b[0] + e.tangents[1] * b[1] + e.tangents[2] * b[2]);
+            let n = a.normals;
+            (tangent, (n[0] * b[0] + n[1] * b[1] + n[2] * b[2]).normalize_or(surface.ng))
         })
     }
 
