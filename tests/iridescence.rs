@@ -191,3 +191,41 @@ fn iridescence_zero_is_the_plain_material_and_a_film_changes_it() {
     }
     assert!(changed > 1e-3, "a film changes the reflection: {changed}");
 }
+
+#[test]
+fn at_the_spectral_kernels_wavelength_the_film_is_its_exact_reflectance_there() {
+    use lucent::spectrum::sampled::basis_at;
+    // Smooth, so the one mirror direction carries the film; a black base, so nothing else.
+    let dielectric = MetalRough {
+        base: Spectrum::ZERO,
+        alpha: 0.0,
+        iridescence: 1.0,
+        film_ior: 1.3,
+        film_thickness: 400.0,
+        ..MetalRough::default()
+    };
+    let gold = Vec3::new(1.0, 0.78, 0.34);
+    let metal = MetalRough { base: Spectrum::from_rgb(gold), metallic: 1.0, ..dielectric };
+    let mut values = Vec::new();
+    for (material, f0) in [(dielectric, Vec3::splat(0.04)), (metal, gold)] {
+        for lambda in [420.0f32, 510.0, 580.0, 660.0] {
+            for cos in [1.0f32, 0.7, 0.3] {
+                let wo = Vec3::new((1.0 - cos * cos).sqrt(), 0.0, cos);
+                let at = MetalRough { film_wavelength: Some(lambda), ..material };
+                let s = Bsdf::MetalRough(at).sample(wo, 0.0, Vec2::splat(0.5), TransportMode::Radiance).unwrap();
+                assert!(s.is_specular());
+                let base = lucent::bsdf::thin_film::f0_to_ior(basis_at(lambda).dot(f0).clamp(0.0, 1.0));
+                let want = reflectance(cos, 1.3, base, 400.0, lambda);
+                let got = s.weight.to_rgb();
+                assert!(
+                    (got - Vec3::splat(want)).abs().max_element() < 1e-5,
+                    "{lambda} nm, cos {cos}: {got} against {want}"
+                );
+                values.push(want);
+            }
+        }
+    }
+    // The film's reflectance is not the same at every wavelength (else nothing was tested).
+    let (lo, hi) = values.iter().fold((f32::MAX, f32::MIN), |(lo, hi), &v| (lo.min(v), hi.max(v)));
+    assert!(hi - lo > 0.1, "{lo} to {hi}");
+}

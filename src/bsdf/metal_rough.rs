@@ -44,6 +44,7 @@ use super::thin_film;
 use super::{BsdfSample, LobeFlags, TransportMode, is_smooth};
 use crate::math::{frame::Frame, warp};
 use crate::spectrum::Spectrum;
+use crate::spectrum::sampled::basis_at;
 use glam::{Vec2, Vec3};
 use std::f32::consts::FRAC_1_PI;
 
@@ -88,6 +89,10 @@ pub struct MetalRough {
     pub film_ior: f32,
     /// Thickness of the thin film, nm.
     pub film_thickness: f32,
+    /// The wavelength (nm) at which the spectral kernel evaluates the film exactly (the
+    /// path's hero, its other wavelengths ended); None in the RGB kernel, which integrates
+    /// the film to RGB.
+    pub film_wavelength: Option<f32>,
     /// KHR_materials_sheen colour (zero: no sheen).
     pub sheen: Spectrum,
     /// Sheen alpha (sheenRoughness^2).
@@ -118,6 +123,7 @@ impl Default for MetalRough {
             iridescence: 0.0,
             film_ior: 1.3,
             film_thickness: 400.0,
+            film_wavelength: None,
             sheen: Spectrum::ZERO,
             sheen_alpha: 0.25,
             diffuse_transmission: 0.0,
@@ -311,9 +317,17 @@ impl MetalRough {
     }
 
     /// The thin film's RGB reflectance at cosine `cos` over a base whose F0 is `f0`, each
-    /// channel over the index its F0 implies (one evaluation when `f0` is grey).
+    /// channel over the index its F0 implies (one evaluation when `f0` is grey). At the
+    /// spectral kernel's wavelength it is the exact reflectance there, over the index of
+    /// `f0`'s value at that wavelength, as grey: the integrator's upsampling is linear and
+    /// turns grey into a flat spectrum, so mixed with the Schlick term it is exact at the
+    /// hero wavelength, the only one the path still carries.
     fn film(&self, f0: Spectrum, cos: f32) -> Spectrum {
         let rgb = f0.to_rgb();
+        if let Some(lambda) = self.film_wavelength {
+            let base = thin_film::f0_to_ior(basis_at(lambda).dot(rgb).clamp(0.0, 1.0));
+            return Spectrum::splat(thin_film::reflectance(cos, self.film_ior, base, self.film_thickness, lambda));
+        }
         let over =
             |f: f32| thin_film::reflectance_rgb(cos, self.film_ior, thin_film::f0_to_ior(f), self.film_thickness);
         if rgb.x == rgb.y && rgb.y == rgb.z {

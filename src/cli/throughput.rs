@@ -197,7 +197,7 @@ fn measure(mut cmd: Command) -> Result<Run, String> {
     })()
     .ok_or_else(|| format!("no figures in its output: {stdout}"))?;
     let bvh_seconds =
-        stderr.lines().find_map(|l| l.split_once("BVH built in ").and_then(|(_, r)| r.split(' ').next()?.parse().ok()));
+        stderr.lines().find_map(|l| l.split_once("built in ").and_then(|(_, r)| r.split(' ').next()?.parse().ok()));
     Ok(Run {
         samples_per_second,
         rays_per_second: samples_per_second * rays_per_sample,

@@ -56,9 +56,11 @@ impl<'a> Vertex<'a> {
         let material = &scene.materials[surface.material as usize];
         let outside_ior =
             if scene.features.volumes { media.outside_ior(&scene.materials, surface.material, front) } else { 1.0 };
-        // A dispersive interface bends each wavelength its own way: the hero's index is
-        // used and the other wavelengths end (pbrt-v4's TerminateSecondary).
-        let wavelength = wl.hero().filter(|_| scene.features.dispersion && material.is_dispersive());
+        // A dispersive interface bends each wavelength its own way, and a thin film reflects
+        // each its own share: the hero's is used and the other wavelengths end (pbrt-v4's
+        // TerminateSecondary).
+        let wavelength =
+            wl.hero().filter(|_| (scene.features.dispersion && material.is_dispersive()) || material.is_iridescent());
         let bsdf = material.bsdf(
             scene.refs(),
             &surface,

@@ -307,6 +307,11 @@ impl Material {
         Self { name: name.into(), metallic: 0.0, roughness: 0.0, transmission: 1.0, ior, volume, ..Self::default() }
     }
 
+    /// Whether a thin film (KHR_materials_iridescence) coats the surface.
+    pub fn is_iridescent(&self) -> bool {
+        self.iridescence > 0.0
+    }
+
     /// Whether the index of refraction varies with wavelength where light crosses.
     pub fn is_dispersive(&self) -> bool {
         self.dispersion > 0.0
@@ -473,8 +478,8 @@ impl Material {
         let diffuse_transmission_color = self.diffuse_transmission_color
             * lookup(self.diffuse_transmission_color_tex, ColorSpace::Srgb).map_or(Vec3::ONE, |t| t.xyz());
         let ior = match wavelength {
-            Some(lambda) => self.ior_at(lambda),
-            None => self.ior,
+            Some(lambda) if self.is_dispersive() => self.ior_at(lambda),
+            _ => self.ior,
         };
         let f0 = ((ior - 1.0) / (ior + 1.0)).powi(2);
         let ior = ior.max(1e-3);
@@ -521,6 +526,7 @@ impl Material {
             iridescence: iridescence.clamp(0.0, 1.0),
             film_ior: self.iridescence_ior,
             film_thickness: film_thickness.max(0.0),
+            film_wavelength: wavelength.filter(|_| iridescence > 0.0),
             sheen: Spectrum::from_rgb(sheen.clamp(Vec3::ZERO, Vec3::ONE)),
             sheen_alpha: (sheen_roughness * sheen_roughness).clamp(MIN_SHEEN_ALPHA, 1.0),
             diffuse_transmission: diffuse_transmission.clamp(0.0, 1.0),

@@ -58,6 +58,12 @@ pub fn d65(lambda: f32) -> f32 {
     lerp1(&D65, 5.0, lambda) / super::upsample::D65_Y
 }
 
+/// The upsampling basis at `lambda` nm: the reflectance spectrum of linear sRGB `rgb` takes
+/// the value `basis_at(lambda).dot(rgb)` there.
+pub fn basis_at(lambda: f32) -> Vec3 {
+    lerp3(&BASIS, 5.0, lambda)
+}
+
 /// The wavelengths of one path, their densities, and what colours become at them.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Sampled {
@@ -83,7 +89,7 @@ impl Sampled {
             let ui = (u + i as f32 / N as f32).fract();
             lambda[i] = sample_visible(ui);
             pdf[i] = visible_pdf(lambda[i]);
-            basis[i] = lerp3(&BASIS, 5.0, lambda[i]);
+            basis[i] = basis_at(lambda[i]);
             illuminant[i] = d65(lambda[i]);
         }
         Self { lambda, pdf, basis, illuminant: Spectrum::from_rgb(Vec3::from(illuminant)) }
