@@ -9,7 +9,7 @@ use crate::film::window::Window;
 use crate::loader::save;
 use crate::open::{OpenOptions, open};
 use crate::render::{Job, RenderSession, Snapshot};
-use crate::scene::{Scene, instances::Instancing};
+use crate::scene::{Scene, geometry::Geometry, instances::Instancing};
 use indicatif::{ProgressBar, ProgressStyle};
 use sha2::{Digest, Sha256};
 use std::path::{Path, PathBuf};
@@ -106,7 +106,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     let session =
         RenderSession::new(Job { scene: Arc::clone(&scene), camera, settings, window, aovs }, args.options.threads)
             .map_err(|e| e.to_string())?;
-    eprintln!("{}: {}", scene.name, scene.geometry.summary());
+    eprintln!("{}: {}", scene.name, geometry_line(&scene.geometry));
     eprintln!("{}: simulating {}", scene.name, crate::integrator::simulated_effects(&scene, &settings));
 
     let bar = match (args.time, target) {
@@ -229,6 +229,21 @@ fn edited(scene: Scene, view: &ViewFile, path: Option<&Path>, save_gltf: Option<
         println!("wrote {}", out.display());
     }
     Ok(if view.has_edits() { scene.with_edits(materials, lights) } else { scene })
+}
+
+/// One line on the geometry: triangles, instances, the BVHs' memory and build time.
+fn geometry_line(g: &Geometry) -> String {
+    let bytes = crate::memory::format_bytes(g.bytes() as u64);
+    let build = g.build_time().as_secs_f64();
+    match g.instance_count() {
+        0 => format!("{} triangles, {bytes} with the BVH, built in {build:.3} s", g.len()),
+        n => format!(
+            "{} triangles placed: {} stored once and {n} placements of {} meshes, {bytes} with the BVHs, built in {build:.3} s",
+            g.len(),
+            g.unique_len(),
+            g.instanced_meshes()
+        ),
+    }
 }
 
 /// What a piece's header names its scene by: the hash of the file and its sidecars, its

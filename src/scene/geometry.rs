@@ -174,20 +174,9 @@ impl Geometry {
         self.world.bytes() + self.meshes.iter().map(Blas::bytes).sum::<usize>() + tlas + instances
     }
 
-    /// One line: triangles, instances, the BVHs' memory and build time.
-    pub fn summary(&self) -> String {
-        let bytes = crate::memory::format_bytes(self.bytes() as u64);
-        let build = self.build_time.as_secs_f64();
-        match self.instances.len() {
-            0 => format!("{} triangles, {bytes} with the BVH, built in {build:.3} s", self.len),
-            n => format!(
-                "{} triangles placed: {} stored once and {} placements of {} meshes, {bytes} with the BVHs, built in {build:.3} s",
-                self.len,
-                self.unique_len(),
-                n,
-                self.meshes.len()
-            ),
-        }
+    /// Meshes stored once for their many placements.
+    pub fn instanced_meshes(&self) -> usize {
+        self.meshes.len()
     }
 
     /// How long building the BVHs took.
