@@ -25,20 +25,43 @@ pub fn offset_ray_origin(p: Vec3, error: Vec3, n: Vec3, w: Vec3) -> Vec3 {
     if w.dot(n) < 0.0 {
         offset = -offset;
     }
-    let mut po = p + offset;
-    for i in 0..3 {
-        if offset[i] > 0.0 {
-            po[i] = po[i].next_up();
-        } else if offset[i] < 0.0 {
-            po[i] = po[i].next_down();
-        }
-    }
-    po
+    let po = p + offset;
+    Vec3::new(step(po.x, offset.x), step(po.y, offset.y), step(po.z, offset.z))
+}
+
+/// The float next to `x` in the direction of `dir`'s sign, as `f32::next_up` / `next_down`
+/// give it (`x` itself for a zero `dir`), without their branches, which the signs of ray
+/// offsets mispredict. Floats are stepped in sign-magnitude order, where both zeros are 0.
+#[inline]
+fn step(x: f32, dir: f32) -> f32 {
+    let bits = x.to_bits() as i32;
+    let ordered = if bits < 0 { -(bits & 0x7fff_ffff) } else { bits };
+    let next = ordered + (dir > 0.0) as i32 - (dir < 0.0) as i32;
+    let stepped = f32::from_bits(if next < 0 { next.unsigned_abs() | 0x8000_0000 } else { next as u32 });
+    if dir == 0.0 || x.is_nan() || stepped.is_nan() { x } else { stepped }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn step_is_next_up_and_next_down() {
+        let mut specials = vec![0.0f32, -0.0, f32::MIN_POSITIVE, -f32::MIN_POSITIVE, f32::MAX, f32::MIN, 1.0, -1.0];
+        specials.extend([f32::INFINITY, f32::NEG_INFINITY, f32::from_bits(1), f32::from_bits(0x8000_0001)]);
+        let mut bits = 0x2545_f491u32;
+        let random = (0..100_000).map(|_| {
+            bits ^= bits << 13;
+            bits ^= bits >> 17;
+            bits ^= bits << 5;
+            f32::from_bits(bits)
+        });
+        for x in specials.into_iter().chain(random).filter(|x| !x.is_nan()) {
+            assert_eq!(step(x, 1.0), x.next_up(), "{x:e} up");
+            assert_eq!(step(x, -2.0), x.next_down(), "{x:e} down");
+            assert_eq!(step(x, 0.0).to_bits(), x.to_bits(), "{x:e} stays");
+        }
+    }
 
     #[test]
     fn offset_leaves_the_plane_on_the_requested_side_at_any_scale() {

@@ -6,10 +6,11 @@
 //! triangles first, then each placement's.
 
 use glam::{Affine3A, Mat3A, Vec2, Vec3, Vec4, Vec4Swizzles};
-use obvhs::cwbvh::CwBvh;
+use std::cell::Cell;
 use std::time::Duration;
 
-use super::blas::{Blas, build_bvh, padded_box, t_unit, to_bvh_ray, traverse};
+use super::blas::{Blas, build_bvh, padded_box};
+use super::wide::{SlabRay, Wide};
 use crate::math::float::gamma;
 
 /// Per-triangle shading attributes, stored in BVH order beside the positions.
@@ -97,9 +98,7 @@ pub struct Geometry {
     /// The meshes' placements, in the top-level BVH's order; `first` increases along it.
     instances: Vec<Instance>,
     /// The top-level BVH over the placements' world bounds.
-    tlas: CwBvh,
-    /// `Blas::t_unit` of the top-level BVH.
-    tlas_t_unit: f32,
+    tlas: Wide,
     /// Placed triangles in all.
     len: usize,
     /// Time obvhs took to build all the BVHs.
@@ -135,8 +134,10 @@ impl Geometry {
         let (lo, hi) = boxes.iter().fold(world.bounds, |(lo, hi), b| (lo.min(b.0), hi.max(b.1)));
         let size = if lo.cmple(hi).all() { (hi - lo).length() } else { 1.0 };
         let padded: Vec<_> = boxes.iter().map(|&(lo, hi)| padded_box(lo, hi, size)).collect();
-        let (tlas, tlas_time) = build_bvh(&padded);
-        instances = tlas.primitive_indices.iter().map(|&i| instances[i as usize]).collect();
+        let (cwbvh, tlas_time) = build_bvh(&padded);
+        instances = cwbvh.primitive_indices.iter().map(|&i| instances[i as usize]).collect();
+        let ordered: Vec<_> = cwbvh.primitive_indices.iter().map(|&i| padded[i as usize]).collect();
+        let tlas = Wide::new(&cwbvh, &ordered);
         let mut len = world.len();
         for i in &mut instances {
             i.first = u32::try_from(len).expect("at most u32::MAX placed triangles");
@@ -144,7 +145,7 @@ impl Geometry {
         }
         assert!(len <= u32::MAX as usize, "at most u32::MAX placed triangles");
         let build_time = world.build_time + meshes.iter().map(|m| m.build_time).sum::<Duration>() + tlas_time;
-        Self { world, meshes, instances, tlas, tlas_t_unit: t_unit(size), len, build_time }
+        Self { world, meshes, instances, tlas, len, build_time }
     }
 
     /// Number of placed triangles (each placement of a mesh counts all its triangles).
@@ -169,7 +170,7 @@ impl Geometry {
 
     /// Bytes the triangles, their attributes and the BVHs hold.
     pub fn bytes(&self) -> usize {
-        let tlas = self.tlas.nodes.len() * std::mem::size_of::<obvhs::cwbvh::node::CwBvhNode>();
+        let tlas = self.tlas.bytes();
         let instances = self.instances.len() * (std::mem::size_of::<Instance>() + 4);
         self.world.bytes() + self.meshes.iter().map(Blas::bytes).sum::<usize>() + tlas + instances
     }
@@ -331,7 +332,7 @@ impl Geometry {
     fn intersect_placed(&self, ray: &Ray, watertight: bool, accept: impl Fn(u32, [f32; 3]) -> bool) -> Option<Hit> {
         let mut closest = self.world.intersect_filtered(ray, watertight, &accept);
         let mut bound = closest.map_or(ray.tmax, |h| h.t);
-        self.placements_along(ray, bound, |i, node_tmax| {
+        self.placements_along(ray, bound, true, |i, node_tmax| {
             let local = i.local_ray(ray, bound);
             let hit =
                 self.meshes[i.mesh as usize].intersect_filtered(&local, watertight, |t, b| accept(i.first + t, b));
@@ -362,7 +363,7 @@ impl Geometry {
             return true;
         }
         let mut blocked = false;
-        self.placements_along(ray, ray.tmax, |i, _| {
+        self.placements_along(ray, ray.tmax, false, |i, _| {
             let local = i.local_ray(ray, ray.tmax);
             blocked = self.meshes[i.mesh as usize].occluded_filtered(&local, watertight, |t, b| accept(i.first + t, b));
             !blocked
@@ -370,21 +371,28 @@ impl Geometry {
         blocked
     }
 
-    /// Visits the placements whose bounds the ray enters before `tmax`, in the top-level
-    /// BVH's order; `visit` may lower the bound (in ray units) through its second argument,
+    /// Visits the placements whose bounds the ray enters before `tmax`, nearest first if
+    /// `ordered`; `visit` may lower the bound (in ray units) through its second argument,
     /// and returns false to stop.
-    fn placements_along(&self, ray: &Ray, tmax: f32, mut visit: impl FnMut(&Instance, &mut f32) -> bool) {
-        let r = to_bvh_ray(&Ray { tmax, ..*ray }, self.tlas_t_unit);
-        let mut bound = tmax;
-        traverse(&self.tlas, &r, |base, mut group, node_ray| {
+    fn placements_along(
+        &self,
+        ray: &Ray,
+        tmax: f32,
+        ordered: bool,
+        mut visit: impl FnMut(&Instance, &mut f32) -> bool,
+    ) {
+        let bound = Cell::new(tmax);
+        self.tlas.traverse(&SlabRay::new(ray.o, ray.d), &bound, ordered, |base, mut group| {
             while group != 0 {
                 let i = &self.instances[(base + group.trailing_zeros()) as usize];
                 group &= group - 1;
-                if !visit(i, &mut bound) {
+                let mut b = bound.get();
+                let go_on = visit(i, &mut b);
+                bound.set(b);
+                if !go_on {
                     return false;
                 }
             }
-            node_ray.tmax = bound / self.tlas_t_unit;
             true
         });
     }
@@ -520,5 +528,60 @@ mod tests {
         assert!(g.occluded(&Ray { tmax: 1.001, ..ray }));
         let back = Ray { o: Vec3::new(0.1, 0.2, -1.0), d: -Vec3::Z, tmax: f32::INFINITY };
         assert!(g.intersect(&back).is_none());
+    }
+
+    #[test]
+    fn thousands_of_placements_answer_every_ray_as_their_flattened_copies() {
+        use glam::Quat;
+        use rand_core::RngCore;
+        // A closed tetrahedron placed 3000 times, turned and scaled, in a 40-wide cube.
+        let v = [Vec3::new(1., 1., 1.), Vec3::new(1., -1., -1.), Vec3::new(-1., 1., -1.), Vec3::new(-1., -1., 1.)];
+        let faces = [[0, 1, 2], [0, 3, 1], [0, 2, 3], [1, 3, 2]];
+        let mesh = Triangles {
+            positions: faces.iter().map(|f| f.map(|i| v[i])).collect(),
+            attrs: faces
+                .iter()
+                .map(|f| {
+                    let ng = (v[f[1]] - v[f[0]]).cross(v[f[2]] - v[f[0]]).normalize();
+                    TriAttrs { normals: [ng; 3], uvs: [Vec2::ZERO; 3], ng, material: 0 }
+                })
+                .collect(),
+            extra: Vec::new(),
+        };
+        let mut rng = rand_pcg::Pcg32::new(5, 3);
+        let mut u = move || (rng.next_u32() >> 8) as f32 / (1u32 << 24) as f32;
+        let placements: Vec<(u32, Affine3A)> = (0..3000)
+            .map(|_| {
+                let turn = Quat::from_euler(glam::EulerRot::XYZ, u() * 6.0, u() * 6.0, u() * 6.0);
+                let at = Vec3::new(u(), u(), u()) * 40.0 - 20.0;
+                (0, Affine3A::from_scale_rotation_translation(Vec3::splat(0.2 + u()), turn, at))
+            })
+            .collect();
+        let flat = Triangles {
+            positions: placements
+                .iter()
+                .flat_map(|(_, t)| mesh.positions.iter().map(|p| p.map(|q| t.transform_point3(q))))
+                .collect(),
+            attrs: vec![mesh.attrs[0]; 4 * placements.len()],
+            extra: Vec::new(),
+        };
+        let placed = Geometry::build_instanced(Triangles::default(), vec![mesh], &placements);
+        let flat = Geometry::build_instanced(flat, Vec::new(), &[]);
+        let (mut hits, mut blocked) = (0, 0);
+        for r in 0..4000 {
+            let o = Vec3::new(u(), u(), u()) * 50.0 - 25.0;
+            let d = Vec3::new(u(), u(), u()) * 2.0 - 1.0;
+            let tmax = if r % 2 == 0 { f32::INFINITY } else { 5.0 + 30.0 * u() };
+            let ray = Ray { o, d, tmax };
+            let (a, b) = (placed.intersect(&ray), flat.intersect(&ray));
+            assert_eq!(a.is_some(), b.is_some(), "ray {r}: {a:?} against {b:?}");
+            if let (Some(a), Some(b)) = (a, b) {
+                assert!((a.t - b.t).abs() <= 1e-4 * (1.0 + b.t), "ray {r}: hit at {} against {}", a.t, b.t);
+                hits += 1;
+            }
+            assert_eq!(placed.occluded(&ray), flat.occluded(&ray), "ray {r}: occlusion");
+            blocked += flat.occluded(&ray) as usize;
+        }
+        assert!(hits > 1000 && blocked > 1000 && blocked < 3900, "{hits} {blocked}");
     }
 }

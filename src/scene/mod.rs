@@ -13,6 +13,7 @@ pub mod shading;
 pub mod shapes;
 pub mod texture;
 mod watertight;
+mod wide;
 
 use crate::math::{
     float::{gamma, interpolation_error, offset_ray_origin},
