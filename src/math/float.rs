@@ -19,6 +19,7 @@ pub fn interpolation_error(b: [f32; 3], p: [Vec3; 3]) -> Vec3 {
 /// to the side of `w`, far enough that a ray leaving from it cannot re-hit the surface,
 /// then rounds away from the surface (pbrt-v4's `OffsetRayOrigin`). The offset scales
 /// with the magnitude of the coordinates: there is no fixed epsilon.
+#[inline]
 pub fn offset_ray_origin(p: Vec3, error: Vec3, n: Vec3, w: Vec3) -> Vec3 {
     let d = n.abs().dot(error);
     let mut offset = d * n;

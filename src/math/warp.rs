@@ -38,18 +38,32 @@ pub fn uniform_sphere(u: Vec2) -> Vec3 {
 /// Density of `uniform_sphere`: 1 / (4 pi).
 pub const UNIFORM_SPHERE_PDF: f32 = 0.25 * FRAC_1_PI;
 
-/// Concentric map of the unit square onto the unit disk (Shirley and Chiu 1997).
+/// Concentric map of the unit square onto the unit disk (Shirley and Chiu 1997). The angle
+/// is pi/4 times a ratio in [-1, 1], or pi/2 less that, so cos and sin come from
+/// `sin_cos_quarter` on [-pi/4, pi/4], swapped in the second case: no libm call, whose
+/// `sincosf` was 2.7% of a Cornell box render's time.
 pub fn concentric_disk(u: Vec2) -> Vec2 {
     let o = 2.0 * u - Vec2::ONE;
     if o == Vec2::ZERO {
         return Vec2::ZERO;
     }
-    let (r, theta) = if o.x.abs() > o.y.abs() {
-        (o.x, std::f32::consts::FRAC_PI_4 * (o.y / o.x))
+    if o.x.abs() > o.y.abs() {
+        let (sin, cos) = sin_cos_quarter(std::f32::consts::FRAC_PI_4 * (o.y / o.x));
+        o.x * Vec2::new(cos, sin)
     } else {
-        (o.y, std::f32::consts::FRAC_PI_2 - std::f32::consts::FRAC_PI_4 * (o.x / o.y))
-    };
-    r * Vec2::new(theta.cos(), theta.sin())
+        let (sin, cos) = sin_cos_quarter(std::f32::consts::FRAC_PI_4 * (o.x / o.y));
+        o.y * Vec2::new(sin, cos)
+    }
+}
+
+/// sin and cos of x in [-pi/4, pi/4], by the minimax polynomials of Cephes's `sinf` and
+/// `cosf` kernels (Moshier 1989), within 2 ulp of the exact values there.
+#[inline]
+fn sin_cos_quarter(x: f32) -> (f32, f32) {
+    let z = x * x;
+    let sin = x + x * z * (-1.666_665_5e-1 + z * (8.332_161e-3 + z * -1.951_529_6e-4));
+    let cos = 1.0 - 0.5 * z + z * z * (4.166_664_6e-2 + z * (-1.388_731_6e-3 + z * 2.443_315_7e-5));
+    (sin, cos)
 }
 
 /// Uniform barycentrics on a triangle (b0, b1, b2); the area pdf is 1 / area.
@@ -63,6 +77,41 @@ pub fn uniform_triangle(u: Vec2) -> [f32; 3] {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn quarter_sin_cos_is_within_two_ulp() {
+        let ulp = |x: f64| (x.abs() as f32).next_up() as f64 - x.abs() as f32 as f64;
+        for i in -100_000..=100_000 {
+            let x = i as f32 / 100_000.0 * std::f32::consts::FRAC_PI_4;
+            let (s, c) = sin_cos_quarter(x);
+            let (es, ec) = (x as f64).sin_cos();
+            assert!((s as f64 - es).abs() <= 2.0 * ulp(es).max(f32::MIN_POSITIVE as f64), "sin {x}: {s} against {es}");
+            assert!((c as f64 - ec).abs() <= 2.0 * ulp(ec), "cos {x}: {c} against {ec}");
+        }
+    }
+
+    #[test]
+    fn the_concentric_map_agrees_with_its_trigonometric_form() {
+        use std::f32::consts::{FRAC_PI_2, FRAC_PI_4};
+        for i in 0..=200 {
+            for j in 0..=200 {
+                let u = Vec2::new(i as f32, j as f32) / 200.0;
+                let o = 2.0 * u - Vec2::ONE;
+                let want = if o == Vec2::ZERO {
+                    Vec2::ZERO
+                } else if o.x.abs() > o.y.abs() {
+                    let t = FRAC_PI_4 * (o.y / o.x);
+                    o.x * Vec2::new(t.cos(), t.sin())
+                } else {
+                    let t = FRAC_PI_2 - FRAC_PI_4 * (o.x / o.y);
+                    o.y * Vec2::new(t.cos(), t.sin())
+                };
+                let got = concentric_disk(u);
+                assert!((got - want).abs().max_element() < 2e-7, "{u}: {got} against {want}");
+                assert!(got.length_squared() <= 1.0 + 2e-7);
+            }
+        }
+    }
+
     use super::*;
 
     #[test]

@@ -122,7 +122,7 @@ impl Blas {
                 group,
                 || bound.get(),
                 |tri, t, b| {
-                    if accept(tri, b) && t < bound.get() {
+                    if t < bound.get() && accept(tri, b) {
                         bound.set(t);
                         closest = Some(Hit { tri, t, b });
                     }
