@@ -135,30 +135,33 @@ static SOBOL_TABLES: LazyLock<SobolTables> = LazyLock::new(|| {
 });
 
 /// Sobol dimensions 0 (low half) and 1 (high half) of the index whose reversed bits are
-/// `index_rev`, shuffled for `seed` by a nested uniform scramble (Burley 2020).
+/// `index_rev`, shuffled by a nested uniform scramble (Burley 2020) keyed by the low half
+/// of the draw's `seed`.
 #[inline]
-fn sobol_bits(index_rev: u32, seed: u32) -> u64 {
+fn sobol_bits(index_rev: u32, seed: u64) -> u64 {
     let t = &*SOBOL_TABLES;
-    let shuffled = owen_scramble_rev(index_rev, hash(seed ^ 0x5851_f42d));
+    let shuffled = owen_scramble_rev(index_rev, seed as u32);
     t.high[(shuffled >> 24) as usize] ^ t.low[(shuffled >> 16 & 0xff) as usize]
 }
 
 /// Point `index` (bits reversed in `index_rev`) of the 2D Sobol sequence for `seed`: the
 /// shuffled point with each coordinate Owen-scrambled on its own, so the points of any 2^k
-/// prefix stay a (0, k, 2)-net. One 64-bit reversal turns both back.
+/// prefix stay a (0, k, 2)-net. The 64 bits of `seed` key the shuffle (low half) and the
+/// first coordinate's scramble (high half); a hash of the latter keys the second's. One
+/// 64-bit reversal turns both back.
 #[inline]
-fn sobol_2d(index_rev: u32, seed: u32) -> [f32; 2] {
+fn sobol_2d(index_rev: u32, seed: u64) -> [f32; 2] {
     let bits = sobol_bits(index_rev, seed);
-    let x = owen_scramble_rev(bits as u32, hash(seed ^ 0x4c95_7f2d));
-    let y = owen_scramble_rev((bits >> 32) as u32, hash(seed ^ 0x2545_f491));
+    let x = owen_scramble_rev(bits as u32, (seed >> 32) as u32);
+    let y = owen_scramble_rev((bits >> 32) as u32, hash((seed >> 32) as u32 ^ 0x2545_f491));
     let both = (x as u64 | (y as u64) << 32).reverse_bits();
     [u32_to_f32_norm((both >> 32) as u32), u32_to_f32_norm(both as u32)]
 }
 
 /// The first coordinate of `sobol_2d`, alone.
 #[inline]
-fn sobol_1d(index_rev: u32, seed: u32) -> f32 {
-    let x = owen_scramble_rev(sobol_bits(index_rev, seed) as u32, hash(seed ^ 0x4c95_7f2d));
+fn sobol_1d(index_rev: u32, seed: u64) -> f32 {
+    let x = owen_scramble_rev(sobol_bits(index_rev, seed) as u32, (seed >> 32) as u32);
     u32_to_f32_norm(x.reverse_bits())
 }
 
@@ -174,9 +177,10 @@ pub fn hash3(a: u64, b: u64, c: u64) -> u64 {
     mix64(mix64(mix64(a) ^ b) ^ c)
 }
 
-/// Scrambling seed of draw number `draw` of a pixel's sequence.
-fn draw_seed(scramble: u64, draw: u32) -> u32 {
-    mix64(scramble ^ draw as u64) as u32
+/// Scrambling seeds of draw number `draw` of a pixel's sequence: 64 mixed bits, split
+/// between the scrambles (two hashes per draw fewer than keying each scramble by a hash).
+fn draw_seed(scramble: u64, draw: u32) -> u64 {
+    mix64(scramble ^ draw as u64)
 }
 
 #[cfg(test)]
