@@ -14,7 +14,7 @@ use std::time::Duration;
 
 use super::geometry::{Hit, Ray, TriAttrs, TriExtra, Triangles};
 use super::watertight::{SoaTriangles, Watertight, intersect_group};
-use super::wide::{SlabRay, Wide};
+use super::wide::{SlabRay, Wide, bits};
 
 /// Triangle positions plus attributes in BVH order, and the BVH over them.
 pub(super) struct Blas {
@@ -173,7 +173,7 @@ impl Blas {
         let bound = Cell::new(ray.tmax);
         let mut closest = None;
         self.bvh.traverse(&SlabRay::new(ray.o, ray.d), &bound, true, |first, group| {
-            for tri in bit_indices(group).map(|bit| first + bit) {
+            for tri in bits(group).map(|bit| first + bit as u32) {
                 if let Some((t, b)) = self.moller(ray, tri, &r).filter(|&(t, b)| t < bound.get() && accept(tri, b)) {
                     bound.set(t);
                     closest = Some(Hit { tri, t, b });
@@ -189,8 +189,8 @@ impl Blas {
         let r = bvh_ray(ray);
         let mut blocked = false;
         self.bvh.traverse(&SlabRay::new(ray.o, ray.d), &Cell::new(ray.tmax), false, |first, group| {
-            blocked = bit_indices(group)
-                .map(|bit| first + bit)
+            blocked = bits(group)
+                .map(|bit| first + bit as u32)
                 .any(|tri| self.moller(ray, tri, &r).is_some_and(|(t, b)| t < ray.tmax && accept(tri, b)));
             !blocked
         });
@@ -205,15 +205,6 @@ impl Blas {
         let t = Triangle { v0, v1, v2 }.intersect(r);
         (t > 0.0 && t < f32::INFINITY).then(|| (t, barycentrics(ray.o + t * ray.d, p)))
     }
-}
-
-/// The positions of the bits set in `mask`, lowest first.
-fn bit_indices(mut mask: u32) -> impl Iterator<Item = u32> {
-    std::iter::from_fn(move || {
-        let bit = mask.trailing_zeros();
-        mask &= mask.wrapping_sub(1);
-        (bit < 32).then_some(bit)
-    })
 }
 
 /// Barycentric weights of the projection of `q` onto the plane of triangle `p`.

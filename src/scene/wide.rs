@@ -209,8 +209,8 @@ impl Wide {
     }
 }
 
-/// Slots set in `mask`, lowest first.
-fn bits(mut mask: u32) -> impl Iterator<Item = usize> {
+/// The positions of the bits set in `mask`, lowest first.
+pub(super) fn bits(mut mask: u32) -> impl Iterator<Item = usize> {
     std::iter::from_fn(move || {
         let s = mask.trailing_zeros();
         mask &= mask.wrapping_sub(1);
