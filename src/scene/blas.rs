@@ -32,9 +32,9 @@ pub(super) struct Blas {
 
 impl Blas {
     /// Builds obvhs's CWBVH over the triangles and the wide BVH from it, then reorders
-    /// triangles and attributes once into BVH order so that traversal indexes them directly. Each triangle's box is
-    /// padded (`padded_box`), so that a ray aimed exactly at a vertex on a box corner
-    /// enters a box around it. `extra` is empty or one per triangle.
+    /// triangles and attributes once into BVH order so that traversal indexes them
+    /// directly. Each triangle's box is padded (`padded_box`), so that a ray aimed exactly
+    /// at a vertex on a box corner enters a box around it. `extra` is empty or one per triangle.
     pub(super) fn build(triangles: Triangles) -> Self {
         let Triangles { positions, attrs, extra } = triangles;
         let bounds = positions

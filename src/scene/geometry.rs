@@ -10,7 +10,7 @@ use std::cell::Cell;
 use std::time::Duration;
 
 use super::blas::{Blas, build_bvh, padded_box};
-use super::wide::{SlabRay, Wide};
+use super::wide::{SlabRay, Wide, bits};
 use crate::math::float::gamma;
 
 /// Per-triangle shading attributes, stored in BVH order beside the positions.
@@ -331,15 +331,14 @@ impl Geometry {
     #[inline(never)]
     fn intersect_placed(&self, ray: &Ray, watertight: bool, accept: impl Fn(u32, [f32; 3]) -> bool) -> Option<Hit> {
         let mut closest = self.world.intersect_filtered(ray, watertight, &accept);
-        let mut bound = closest.map_or(ray.tmax, |h| h.t);
-        self.placements_along(ray, bound, true, |i, node_tmax| {
-            let local = i.local_ray(ray, bound);
+        let bound = Cell::new(closest.map_or(ray.tmax, |h| h.t));
+        self.placements_along(ray, &bound, true, |i| {
+            let local = i.local_ray(ray, bound.get());
             let hit =
                 self.meshes[i.mesh as usize].intersect_filtered(&local, watertight, |t, b| accept(i.first + t, b));
-            if let Some(h) = hit.filter(|h| h.t < bound) {
-                bound = h.t;
+            if let Some(h) = hit.filter(|h| h.t < bound.get()) {
+                bound.set(h.t);
                 closest = Some(Hit { tri: i.first + h.tri, ..h });
-                *node_tmax = bound;
             }
             true
         });
@@ -363,7 +362,7 @@ impl Geometry {
             return true;
         }
         let mut blocked = false;
-        self.placements_along(ray, ray.tmax, false, |i, _| {
+        self.placements_along(ray, &Cell::new(ray.tmax), false, |i| {
             let local = i.local_ray(ray, ray.tmax);
             blocked = self.meshes[i.mesh as usize].occluded_filtered(&local, watertight, |t, b| accept(i.first + t, b));
             !blocked
@@ -371,29 +370,11 @@ impl Geometry {
         blocked
     }
 
-    /// Visits the placements whose bounds the ray enters before `tmax`, nearest first if
-    /// `ordered`; `visit` may lower the bound (in ray units) through its second argument,
-    /// and returns false to stop.
-    fn placements_along(
-        &self,
-        ray: &Ray,
-        tmax: f32,
-        ordered: bool,
-        mut visit: impl FnMut(&Instance, &mut f32) -> bool,
-    ) {
-        let bound = Cell::new(tmax);
-        self.tlas.traverse(&SlabRay::new(ray.o, ray.d), &bound, ordered, |base, mut group| {
-            while group != 0 {
-                let i = &self.instances[(base + group.trailing_zeros()) as usize];
-                group &= group - 1;
-                let mut b = bound.get();
-                let go_on = visit(i, &mut b);
-                bound.set(b);
-                if !go_on {
-                    return false;
-                }
-            }
-            true
+    /// Visits the placements whose bounds the ray enters before `bound`, nearest first if
+    /// `ordered`; `visit` may lower `bound` (in ray units), and returns false to stop.
+    fn placements_along(&self, ray: &Ray, bound: &Cell<f32>, ordered: bool, mut visit: impl FnMut(&Instance) -> bool) {
+        self.tlas.traverse(&SlabRay::new(ray.o, ray.d), bound, ordered, |base, group| {
+            bits(group).all(|bit| visit(&self.instances[base as usize + bit]))
         });
     }
 }
