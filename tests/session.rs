@@ -1,15 +1,16 @@
 //! The render session: a new job bumps the generation, and no sample of the old job
 //! reaches the new image (it equals a fresh render of the new job, bit for bit); a job
-//! whose film would not fit in the memory limit is refused before it is allocated.
+//! whose film would not fit in the memory limit is refused before it is allocated; a job
+//! with a deadline ends there.
 
 mod common;
 
 use lucent::integrator::Settings;
 use lucent::loader::{Limits, builtin};
-use lucent::render::{Job, RenderSession, SessionError};
+use lucent::render::{Job, RenderSession, SessionError, Snapshot};
 use lucent::scene::Scene;
 use std::sync::Arc;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 #[test]
 fn a_new_job_restarts_accumulation_without_stale_samples() {
@@ -38,6 +39,23 @@ fn a_new_job_restarts_accumulation_without_stale_samples() {
 
     let fresh = common::render(&scene, moved, second, Some(1));
     assert!(after.mean == fresh.mean, "the restarted image holds only samples of the new job");
+}
+
+#[test]
+fn a_job_without_a_sample_target_ends_at_its_deadline() {
+    // A deadline already passed: no further pass fits, so the job is done after the pass
+    // in flight; without the deadline it would run until dropped.
+    let scene = Arc::new(Scene::build(builtin::cornell_box()));
+    let settings = Settings { width: 16, height: 16, target_spp: None, ..Settings::default() };
+    let job = Job { scene: Arc::clone(&scene), camera: scene.default_camera(1.0), settings, window: None, aovs: false };
+    let session = RenderSession::new(job, Some(2)).unwrap();
+    session.stop_at(Instant::now());
+    let mut latest = None;
+    let waited = Instant::now();
+    while latest.as_ref().is_none_or(|s: &Arc<Snapshot>| !s.done) {
+        assert!(waited.elapsed() < Duration::from_secs(60), "the job did not end at its deadline");
+        latest = session.wait_for_update(latest.as_ref(), Duration::from_secs(1)).or(latest);
+    }
 }
 
 #[test]

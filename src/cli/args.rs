@@ -327,8 +327,8 @@ const NO_MAP: &str = "none";
 pub struct RenderArgs {
     /// glTF scene (.gltf or .glb) [default: the built-in Cornell box].
     pub scene: Option<PathBuf>,
-    /// Render for this many seconds instead of a sample count (--spp then caps it; without
-    /// --time, --spp defaults to 64).
+    /// Render for this many seconds instead of a sample count, ending with the last pass
+    /// that fits (--spp then caps it; without --time, --spp defaults to 64).
     #[arg(long, allow_negative_numbers = true)]
     pub time: Option<f64>,
     /// Output file: .png (tonemapped sRGB), .exr (linear float), or .part (a piece of the

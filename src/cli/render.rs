@@ -103,9 +103,14 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     };
     let window = args.region.as_deref().map(|r| Window::parse(r, settings.width, settings.height)).transpose()?;
     let aovs = args.denoise || args.aovs;
+    let start = Instant::now();
     let session =
         RenderSession::new(Job { scene: Arc::clone(&scene), camera, settings, window, aovs }, args.options.threads)
             .map_err(|e| e.to_string())?;
+    // A budget too far off for the clock (1e30 s) simply never ends the render.
+    if let Some(deadline) = args.time.and_then(|t| start.checked_add(Duration::try_from_secs_f64(t).ok()?)) {
+        session.stop_at(deadline);
+    }
     eprintln!("{}: {}", scene.name, geometry_line(&scene.geometry));
     eprintln!("{}: simulating {}", scene.name, crate::integrator::simulated_effects(&scene, &settings));
 
@@ -116,7 +121,6 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         }
         (None, None) => unreachable!("a target or a time budget is always set"),
     };
-    let start = Instant::now();
     let mut latest: Option<Arc<Snapshot>> = None;
     loop {
         if let Some(s) = session.wait_for_update(latest.as_ref(), Duration::from_millis(200)) {
@@ -130,9 +134,11 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
             }
             latest = Some(s);
         }
+        // With a time budget the session ends the job at the deadline; only a first pass
+        // still running then is given up.
         if let Some(t) = args.time {
             bar.set_position(start.elapsed().as_millis() as u64);
-            if start.elapsed().as_secs_f64() >= t {
+            if latest.is_none() && start.elapsed().as_secs_f64() >= t {
                 break;
             }
         }

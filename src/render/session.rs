@@ -205,6 +205,8 @@ struct State {
     latest: Option<Arc<Snapshot>>,
     paused: bool,
     stop: bool,
+    /// When jobs end, whatever their sample count (`stop_at`).
+    deadline: Option<Instant>,
 }
 
 struct Shared {
@@ -288,6 +290,17 @@ impl RenderSession {
     /// The current generation (bumped by every `set_job`).
     pub fn generation(&self) -> u64 {
         self.shared.generation.load(Ordering::SeqCst)
+    }
+
+    /// Ends the job before `deadline`: the job is done when the measured time per sample says
+    /// that its next pass would not end by then (the first pass always runs). A render given
+    /// a time budget thus takes no longer than it and computes no pass it then drops. Passes
+    /// are not shortened to fill the time left: each shorter pass adds one more Sobol net
+    /// (`next_pass`), and on the Cornell box, whose light's edges hold a third of the
+    /// squared error, that raised the error at equal time.
+    pub fn stop_at(&self, deadline: Instant) {
+        self.shared.lock().deadline = Some(deadline);
+        self.shared.wake.notify_all();
     }
 
     /// Pauses or resumes the workers (a pass in flight completes first); wakes the
@@ -413,6 +426,8 @@ struct Active {
     traced: u64,
     /// Every pixel stopped by the noise threshold.
     converged: bool,
+    /// The session's deadline left no time for another pass.
+    timed_out: bool,
 }
 
 impl Active {
@@ -433,11 +448,12 @@ impl Active {
             samples: 0,
             traced: 0,
             converged: false,
+            timed_out: false,
         }
     }
 
     fn done(&self) -> bool {
-        self.converged || self.job.settings.target_spp.is_some_and(|t| self.spp >= t)
+        self.converged || self.timed_out || self.job.settings.target_spp.is_some_and(|t| self.spp >= t)
     }
 }
 
@@ -445,6 +461,7 @@ impl Active {
 fn coordinate(shared: &Shared, pool: &rayon::ThreadPool) {
     let mut active: Option<Active> = None;
     loop {
+        let deadline;
         {
             let mut state = shared.lock();
             loop {
@@ -460,9 +477,10 @@ fn coordinate(shared: &Shared, pool: &rayon::ThreadPool) {
                 }
                 state = shared.wake.wait(state).unwrap_or_else(|e| e.into_inner());
             }
+            deadline = state.deadline;
         }
         let Some(a) = active.as_mut() else { continue };
-        if !run_pass(shared, pool, a) {
+        if !run_pass(shared, pool, a, deadline) {
             continue;
         }
         let replicates = a.job.settings.replicates() > 1;
@@ -565,15 +583,29 @@ impl Pass<'_> {
     }
 }
 
-/// Adds one pass to the film; false if a newer job arrived meanwhile (the pass is dropped).
-fn run_pass(shared: &Shared, pool: &rayon::ThreadPool, a: &mut Active) -> bool {
+/// Whether a pass of `count` samples per pixel ends before `deadline` at the rate measured
+/// so far (`elapsed` for `spp` samples); with nothing measured yet, it does.
+fn fits(count: u32, (spp, elapsed): (u32, Duration), deadline: Option<Instant>) -> bool {
+    let Some(deadline) = deadline.filter(|_| spp > 0) else { return true };
+    let left = deadline.saturating_duration_since(Instant::now()).as_secs_f64();
+    elapsed.as_secs_f64() / spp as f64 * count as f64 <= left
+}
+
+/// Adds one pass to the film; false if a newer job arrived meanwhile (the pass is dropped)
+/// or the deadline left no time for one (the job is then done).
+fn run_pass(shared: &Shared, pool: &rayon::ThreadPool, a: &mut Active, deadline: Option<Instant>) -> bool {
     let remaining = a.job.settings.target_spp.map_or(u32::MAX, |t| t - a.spp);
+    let count = a.pass_spp.min(remaining);
+    if !fits(count, (a.spp, a.elapsed), deadline) {
+        a.timed_out = true;
+        return true;
+    }
     let pass = Pass {
         scene: &a.job.scene,
         settings: &a.job.settings,
         view: &a.view,
         first: a.job.settings.first_sample as u64 + a.spp as u64,
-        count: a.pass_spp.min(remaining),
+        count,
         current: &shared.generation,
         generation: a.generation,
         aovs: a.job.aovs,
@@ -591,10 +623,51 @@ fn run_pass(shared: &Shared, pool: &rayon::ThreadPool, a: &mut Active) -> bool {
     a.elapsed += took;
     a.samples += samples;
     a.traced += traced;
-    if took < Duration::from_millis(100) {
-        a.pass_spp = (a.pass_spp * 2).min(64);
-    } else if took > Duration::from_millis(400) {
-        a.pass_spp = (a.pass_spp / 2).max(1);
-    }
+    a.pass_spp = next_pass(count, pass.first + count as u64, took);
     true
+}
+
+/// Samples in the pass after one of `pass` samples that took `took` and ended at sample
+/// index `end`: a power of two, doubled for passes under 100 ms (up to 64) and halved for
+/// passes over 400 ms, and doubled only where `end` is a multiple of the doubled size. Every
+/// pass then covers an aligned block of 2^k indices, one of the Sobol sequence's (0, k,
+/// 2)-nets, and the samples a snapshot holds are a union of few nets (115 samples taken as
+/// 1, 2, 4, 8, 8, ... end in 64 + 32 + 16 + 2 + 1, five nets; taken as 1, 1, 2, 4, 8, ...
+/// they end at a multiple of 8). In a render stopped by time, where the pixels along the
+/// Cornell light's edges hold a third of the squared error, each net leaves up to one
+/// sample's error in the share of a pixel the light covers.
+fn next_pass(pass: u32, end: u64, took: Duration) -> u32 {
+    if took < Duration::from_millis(100) {
+        let doubled = (pass * 2).min(64);
+        if end.is_multiple_of(doubled as u64) { doubled } else { pass }
+    } else if took > Duration::from_millis(400) {
+        (pass / 2).max(1)
+    } else {
+        pass
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn passes_cover_aligned_power_of_two_blocks_of_sample_indices() {
+        // Fast passes, then slow ones, then fast again: every pass starts at a multiple of
+        // its own size, which is a power of two.
+        let (fast, slow) = (Duration::from_millis(10), Duration::from_millis(900));
+        let mut timings = vec![fast; 12];
+        timings.extend([slow; 3]);
+        timings.extend([fast; 6]);
+        for first in [0u64, 5, 64] {
+            let (mut pass, mut start, mut sizes) = (1u32, first, Vec::new());
+            for took in &timings {
+                assert!(pass.is_power_of_two() && start.is_multiple_of(pass as u64), "{first}: {pass} at {start}");
+                sizes.push(pass);
+                start += pass as u64;
+                pass = next_pass(pass, start, *took);
+            }
+            assert_eq!(sizes.iter().max(), Some(&64), "{first}: {sizes:?}");
+        }
+    }
 }
