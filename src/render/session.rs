@@ -591,8 +591,8 @@ fn fits(count: u32, (spp, elapsed): (u32, Duration), deadline: Option<Instant>) 
     elapsed.as_secs_f64() / spp as f64 * count as f64 <= left
 }
 
-/// Adds one pass to the film; false if a newer job arrived meanwhile (the pass is dropped)
-/// or the deadline left no time for one (the job is then done).
+/// Adds one pass to the film; false if a newer job arrived meanwhile (the pass is dropped).
+/// Where the deadline leaves no time for the pass, none runs and the job is done.
 fn run_pass(shared: &Shared, pool: &rayon::ThreadPool, a: &mut Active, deadline: Option<Instant>) -> bool {
     let remaining = a.job.settings.target_spp.map_or(u32::MAX, |t| t - a.spp);
     let count = a.pass_spp.min(remaining);
