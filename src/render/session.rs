@@ -296,8 +296,8 @@ impl RenderSession {
     /// that its next pass would not end by then (the first pass always runs). A render given
     /// a time budget thus takes no longer than it and computes no pass it then drops. Passes
     /// are not shortened to fill the time left: each shorter pass adds one more Sobol net
-    /// (`next_pass`), and on the Cornell box, whose light's edges hold a third of the
-    /// squared error, that raised the error at equal time.
+    /// (`next_pass`), and on the Cornell box that did not lower the error at equal time
+    /// (RMSE 0.0055 to 0.0060 against 0.0055 to 0.0059, three seeds).
     pub fn stop_at(&self, deadline: Instant) {
         self.shared.lock().deadline = Some(deadline);
         self.shared.wake.notify_all();
@@ -461,8 +461,7 @@ impl Active {
 fn coordinate(shared: &Shared, pool: &rayon::ThreadPool) {
     let mut active: Option<Active> = None;
     loop {
-        let deadline;
-        {
+        let deadline = {
             let mut state = shared.lock();
             loop {
                 if state.stop {
@@ -477,8 +476,8 @@ fn coordinate(shared: &Shared, pool: &rayon::ThreadPool) {
                 }
                 state = shared.wake.wait(state).unwrap_or_else(|e| e.into_inner());
             }
-            deadline = state.deadline;
-        }
+            state.deadline
+        };
         let Some(a) = active.as_mut() else { continue };
         if !run_pass(shared, pool, a, deadline) {
             continue;
@@ -631,11 +630,11 @@ fn run_pass(shared: &Shared, pool: &rayon::ThreadPool, a: &mut Active, deadline:
 /// index `end`: a power of two, doubled for passes under 100 ms (up to 64) and halved for
 /// passes over 400 ms, and doubled only where `end` is a multiple of the doubled size. Every
 /// pass then covers an aligned block of 2^k indices, one of the Sobol sequence's (0, k,
-/// 2)-nets, and the samples a snapshot holds are a union of few nets (115 samples taken as
-/// 1, 2, 4, 8, 8, ... end in 64 + 32 + 16 + 2 + 1, five nets; taken as 1, 1, 2, 4, 8, ...
-/// they end at a multiple of 8). In a render stopped by time, where the pixels along the
-/// Cornell light's edges hold a third of the squared error, each net leaves up to one
-/// sample's error in the share of a pixel the light covers.
+/// 2)-nets, and the samples a snapshot holds are a union of few nets: passes of 1, 2, 4,
+/// 4, ... ended at 7 + 4k samples (115 = 64 + 32 + 16 + 2 + 1, five nets), passes of 1, 1,
+/// 2, 4, 4, ... end at a multiple of 4 (116 = 64 + 32 + 16 + 4). Each net leaves up to one
+/// sample's error in the share of a pixel an edge covers, and the pixels along the Cornell
+/// light's edges hold a third of a time-budgeted render's squared error.
 fn next_pass(pass: u32, end: u64, took: Duration) -> u32 {
     if took < Duration::from_millis(100) {
         let doubled = (pass * 2).min(64);
