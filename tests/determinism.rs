@@ -52,3 +52,23 @@ fn skipping_absent_effects_gives_the_bits_of_running_them_all() {
         assert!(a.mean == b.mean, "{light_sampling:?}: the scene's switches and every feature on differ");
     }
 }
+
+#[test]
+fn shadow_rays_stop_at_refracting_glass_with_the_bits_of_testing_what_they_cross() {
+    // The glass box's glass refracts (index 1.5 against air): no light passes it straight,
+    // so its shadow rays take an occlusion query, not a walk through every surface.
+    let path = common::asset("cornell-box-glass.gltf");
+    let open = || lucent::open::open(Some(&path), &Default::default(), &mut |_| {}).expect("the glass box loads");
+    let specialised = Arc::new(open());
+    assert!(specialised.features.volumes && !specialised.features.see_through, "{:?}", specialised.features);
+    let mut walking = open();
+    walking.features.see_through = true;
+    let walking = Arc::new(walking);
+    let camera = specialised.default_camera(1.2);
+    for light_sampling in [LightSampling::Explicit, LightSampling::Mis] {
+        let s = Settings { light_sampling, max_depth: 4, ..settings(3) };
+        let a = common::render(&specialised, camera, s, None);
+        let b = common::render(&walking, camera, s, None);
+        assert!(a.mean == b.mean, "{light_sampling:?}: occlusion queries and walks differ");
+    }
+}

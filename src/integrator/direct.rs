@@ -94,7 +94,7 @@ fn shadow(
 ) -> Spectrum {
     let (d, tmax) = towards(settings, origin, wi, target);
     let ray = Ray { o: origin, d, tmax };
-    if scene.features.see_through {
+    if scene.features.see_through || !media.is_empty() {
         return shadow_through(scene, settings, (ray, wi, target), media, sampler, wl);
     }
     if scene.occluded(&ray, settings.watertight) {
@@ -104,8 +104,8 @@ fn shadow(
     }
 }
 
-/// `shadow` in a scene with see-through surfaces: crosses each one the ray meets, up to
-/// `MAX_CROSSINGS`.
+/// `shadow` in a scene with see-through surfaces, or from inside a volume: crosses each
+/// see-through surface the ray meets, up to `MAX_CROSSINGS`.
 #[inline(never)]
 fn shadow_through(
     scene: &Scene,

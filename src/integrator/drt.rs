@@ -83,7 +83,7 @@ fn trace(
     if surface.ng.dot(ray.d) < 0.0 {
         radiance += emitted(scene, settings, &surface, -ray.d, travelled + hit.t, last, &Wavelengths::Rgb);
     }
-    if depth == settings.max_depth && !scene.features.see_through {
+    if depth == settings.max_depth && !scene.features.see_through && media.is_empty() {
         if aov.pending() {
             aov.surface(&Vertex::new(scene, settings, surface, ray.d, media, &mut Wavelengths::Rgb));
         }

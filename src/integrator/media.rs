@@ -24,6 +24,11 @@ pub struct Media {
 }
 
 impl Media {
+    /// Whether the path is in no volume.
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
     fn find(&self, material: u32) -> Option<usize> {
         self.entries[..self.len].iter().rposition(|&m| m == material)
     }

@@ -131,7 +131,7 @@ pub fn radiance<const MEDIA: bool>(
         if surface.ng.dot(ray.d) < 0.0 {
             out.radiance += throughput * emitted(scene, settings, &surface, -ray.d, travelled + hit.t, last, wl);
         }
-        if depth == settings.max_depth && !scene.features.see_through {
+        if depth == settings.max_depth && !scene.features.see_through && media.is_empty() {
             if aov.pending() {
                 // Its own wavelengths: the path's must not change for the AOVs' sake.
                 aov.surface(&Vertex::new(scene, settings, surface, ray.d, media, &mut Wavelengths::Rgb));

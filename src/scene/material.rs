@@ -349,6 +349,29 @@ impl Material {
             && (self.metallic < 1.0 || self.metallic_roughness_tex.is_some())
     }
 
+    /// Whether light may leave through its surface straight on, by a null lobe: through a
+    /// smooth thin wall, or an interface whose index matches the other side's, one of
+    /// `outside_iors` (vacuum's and the other volumes'). Conservative: a texture that can
+    /// lower the roughness counts as smooth, and a dispersive index as matching. Where no
+    /// material may, shadow rays need no more than an occlusion query.
+    pub fn may_pass_straight(&self, outside_iors: &[f32]) -> bool {
+        if !self.is_transmissive() || self.transmission <= 0.0 {
+            return false;
+        }
+        // Looser than the BSDF's 1e-3 on eta - 1, so that rounding cannot tell them apart.
+        let matches = |a: f32, b: f32| (a / b - 1.0).abs() < 2e-3 || (b / a - 1.0).abs() < 2e-3;
+        let ior = self.ior.max(1e-3);
+        let matched = |outside: &[f32]| self.is_dispersive() || outside.iter().any(|&o| matches(ior, o));
+        match self.volume {
+            None => {
+                let may_be_smooth = self.metallic_roughness_tex.is_some()
+                    || crate::bsdf::is_smooth((self.roughness * self.roughness).clamp(0.0, 1.0));
+                may_be_smooth || matched(&[1.0])
+            }
+            Some(_) => matched(outside_iors),
+        }
+    }
+
     /// Whether paths that cross the surface enter a refracting, absorbing volume.
     pub fn is_volume(&self) -> bool {
         self.is_transmissive() && self.volume.is_some()
@@ -583,5 +606,37 @@ impl Material {
             Some(t) => self.emitted() * t.sample(textures, images, &surface.uv, ColorSpace::Srgb).xyz(),
             None => self.emitted(),
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn only_smooth_thin_walls_and_matched_indices_may_pass_light_straight() {
+        let volume = Some(Volume::absorbing(Vec3::splat(0.1)));
+        let vacuum = [1.0];
+        // Refracting glass around a volume, alone or beside a volume of another index.
+        assert!(!Material::dielectric("glass", 1.5, volume).may_pass_straight(&vacuum));
+        assert!(!Material::dielectric("glass", 1.5, volume).may_pass_straight(&[1.0, 1.33]));
+        // Index-matched: to vacuum, or to water beside it (either side of the interface).
+        assert!(Material::dielectric("matched", 1.0, volume).may_pass_straight(&vacuum));
+        assert!(Material::dielectric("water", 1.33, volume).may_pass_straight(&[1.0, 1.33]));
+        assert!(Material::dielectric("water", 1.3305, volume).may_pass_straight(&[1.0, 1.33]));
+        // Thin walls: smooth ones pass light straight, rough ones only at index 1.
+        assert!(Material::dielectric("pane", 1.5, None).may_pass_straight(&vacuum));
+        let frosted = Material { roughness: 0.5, ..Material::dielectric("frosted", 1.5, None) };
+        assert!(!frosted.may_pass_straight(&vacuum));
+        assert!(Material { ior: 1.0, ..frosted.clone() }.may_pass_straight(&vacuum));
+        // A roughness texture may make it smooth somewhere; dispersion may match somewhere.
+        let tex = Some(TexRef::plain(0));
+        assert!(Material { metallic_roughness_tex: tex, ..frosted.clone() }.may_pass_straight(&vacuum));
+        let flint = Material { dispersion: 0.5, ..Material::dielectric("flint", 1.6, volume) };
+        assert!(flint.may_pass_straight(&vacuum));
+        // What does not transmit by its specular interface never does.
+        let leaf = Material { diffuse_transmission: 1.0, transmission: 0.0, ..frosted.clone() };
+        assert!(!leaf.may_pass_straight(&vacuum));
+        assert!(!Material { metallic: 1.0, ..Material::dielectric("metal", 1.0, None) }.may_pass_straight(&vacuum));
     }
 }

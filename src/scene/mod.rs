@@ -52,8 +52,10 @@ pub struct Features {
     pub environment: bool,
     /// Some volume scatters light (a participating medium): the volumetric path tracer runs.
     pub media: bool,
-    /// Some surface transmits, so it may let light straight through (a thin wall, or an
-    /// index-matched interface): shadow rays test what they cross instead of stopping.
+    /// Some surface may let light straight through (a smooth thin wall, or an interface
+    /// index-matched to vacuum or to another volume: `Material::may_pass_straight`): shadow
+    /// rays test what they cross instead of stopping at the first surface. Without it they
+    /// still do where they start inside a volume, whose surfaces may overlap its own.
     pub see_through: bool,
     /// Some material's index of refraction varies with wavelength (KHR_materials_dispersion):
     /// the spectral kernel runs.
@@ -359,6 +361,13 @@ impl Scene {
         let mut seen = vec![false; materials.len()];
         geometry.materials().for_each(|(_, m)| seen[m as usize] = true);
         let used: Vec<&Material> = materials.iter().zip(seen).filter(|(_, s)| *s).map(|(m, _)| m).collect();
+        // What a material's surface may border: vacuum, or another volume. A volume meets
+        // itself only from inside itself, which a shadow ray starting outside every volume
+        // reaches through a surface that already counts (see `Features::see_through`).
+        let may_pass_straight = |m: &Material| {
+            let others = used.iter().filter(|o| o.is_volume() && !std::ptr::eq(**o, m)).map(|o| o.ior);
+            m.may_pass_straight(&std::iter::once(1.0).chain(others).collect::<Vec<f32>>())
+        };
         self.features = Features {
             emissive: used.iter().any(|m| m.is_emissive()),
             punctual: !self.lights.is_empty(),
@@ -368,7 +377,7 @@ impl Scene {
             cutouts: used.iter().any(|m| m.is_cutout()),
             environment: self.environment.is_some(),
             media: used.iter().any(|m| m.is_scattering()),
-            see_through: used.iter().any(|m| m.is_transmissive()),
+            see_through: used.iter().any(|m| may_pass_straight(m)),
             dispersion: used.iter().any(|m| m.is_dispersive()),
         };
     }
