@@ -1,7 +1,7 @@
 //! The path tracer (textbook section 10.7): one direction per bounce, chosen by importance
 //! sampling (10.8) or uniformly, with explicit light sampling (10.9) or MIS, and Russian
-//! roulette on the throughput times eta^2 (pbrt-v4's etaScale), so that radiance scaled by
-//! refraction into glass does not end paths early.
+//! roulette on the square root of the throughput times eta^2 (pbrt-v4's etaScale, so that
+//! radiance scaled by refraction into glass does not end paths early).
 //!
 //! With `MEDIA` it is the volumetric path tracer (pbrt-v4's VolPathIntegrator for
 //! homogeneous media): inside a scattering volume a free-flight distance is sampled on every
@@ -203,12 +203,15 @@ pub fn radiance<const MEDIA: bool>(
 /// each weighted 20-fold, and its estimate was heavy-tailed).
 const MAX_SURVIVAL: f32 = 0.995;
 
-/// Russian roulette on the throughput times eta^2, survival capped below 1, from
-/// `rr_depth` bounces on; false if the path ends.
+/// Russian roulette from `rr_depth` bounces on: the path survives with the square root of
+/// its throughput times eta^2, capped below 1; false if it ends. The square root (Cycles'
+/// rule) ends dim paths later than the throughput itself (pbrt-v4's and Mitsuba's): on the
+/// Cornell boxes at 64 spp it traced 8% more rays per sample for 16% (box) and 14% (glass)
+/// less squared error (README, "Speed").
 fn roulette(settings: &Settings, depth: u32, throughput: &mut Spectrum, eta_scale: f32, sampler: &mut Sampler) -> bool {
     let u_rr = sampler.next_1d();
     if depth >= settings.rr_depth {
-        let survive = (*throughput * eta_scale).max_element().min(MAX_SURVIVAL);
+        let survive = (*throughput * eta_scale).max_element().sqrt().min(MAX_SURVIVAL);
         if u_rr >= survive {
             return false;
         }
