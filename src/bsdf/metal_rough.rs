@@ -41,7 +41,7 @@ use super::dielectric::Interface;
 use super::microfacet::{Ggx, reflect};
 use super::sheen::Sheen;
 use super::thin_film;
-use super::{BsdfSample, LobeFlags, TransportMode, is_smooth};
+use super::{BsdfSample, LobeFlags, TransportMode, is_index_matched, is_smooth};
 use crate::math::{frame::Frame, warp};
 use crate::spectrum::Spectrum;
 use crate::spectrum::sampled::basis_at;
@@ -203,7 +203,7 @@ impl MetalRough {
     /// Whether the interface's lobes are deltas: it is smooth, or index-matched (between
     /// equal indices nothing bends and Fresnel reflects nothing, whatever the microfacets).
     fn smooth_interface(&self) -> bool {
-        self.smooth() || (self.eta - 1.0).abs() < 1e-3
+        self.smooth() || is_index_matched(self.eta)
     }
 
     /// Whether the interface's transmission leaves straight through (a null lobe): a smooth
@@ -297,7 +297,7 @@ impl MetalRough {
     /// whatever the microfacets, which is the thin wall's lobe; the refraction lobe's half
     /// vector would be undefined there.
     fn interface(&self) -> Interface {
-        let thin = self.thin || (self.eta - 1.0).abs() < 1e-3;
+        let thin = self.thin || is_index_matched(self.eta);
         Interface { ggx: self.ggx(), eta: self.eta, thin, specular: self.specular }
     }
 

@@ -37,6 +37,15 @@ pub fn is_smooth(alpha: f32) -> bool {
     alpha < SMOOTH_ALPHA
 }
 
+/// Within this of 1, a relative index of refraction makes an index-matched interface: light
+/// crosses it straight, without Fresnel reflection or bending.
+pub const MATCHED_ETA: f32 = 1e-3;
+
+/// Whether an interface of relative index `eta` is index-matched.
+pub fn is_index_matched(eta: f32) -> bool {
+    (eta - 1.0).abs() < MATCHED_ETA
+}
+
 bitflags::bitflags! {
     /// What a lobe (or the set of lobes of a BSDF) does with light.
     #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -358,8 +358,10 @@ impl Material {
         if !self.is_transmissive() || self.transmission <= 0.0 {
             return false;
         }
-        // Looser than the BSDF's 1e-3 on eta - 1, so that rounding cannot tell them apart.
-        let matches = |a: f32, b: f32| (a / b - 1.0).abs() < 2e-3 || (b / a - 1.0).abs() < 2e-3;
+        // Twice the BSDF's tolerance (`is_index_matched`), so that rounding cannot tell them
+        // apart.
+        let near = |eta: f32| (eta - 1.0).abs() < 2.0 * crate::bsdf::MATCHED_ETA;
+        let matches = |a: f32, b: f32| near(a / b) || near(b / a);
         let ior = self.ior.max(1e-3);
         let matched = |outside: &[f32]| self.is_dispersive() || outside.iter().any(|&o| matches(ior, o));
         match self.volume {
