@@ -160,12 +160,17 @@ fn assert_mean(snap: &Snapshot, expected: f64, z_max: f64, label: &str) {
 fn a_scattering_medium_in_an_emitting_enclosure_returns_the_emitted_radiance() {
     // L = Le everywhere inside a closed emitter whose inside is filled with a medium that
     // scatters and does not absorb: in-scattering exactly replaces what extinction removes.
+    // The medium ends 0.2 short of the emitter: a light sample's weight grows as one over the
+    // squared distance to the emitter, and with a gap of 0.05 and g 0.8, explicit light
+    // sampling's estimate was so heavy-tailed (pixels of 8.6 at 64 spp for a mean of 0.7)
+    // that the sample variance the z-test divides by could not be trusted.
+    let inner_radius = 0.8;
     let le = 0.7f32;
     let z_max = common::sidak_z(1e-3, 3 * SWITCHES.len() * 3);
     for g in [-0.5f32, 0.0, 0.8] {
         let wall = Material { emissive: Vec3::splat(le), ..Material::lambert("wall", Vec3::ZERO) };
         let fog = Volume { sigma_t: Vec3::new(1.5, 2.0, 3.0), albedo: Vec3::ONE, g, grid: None };
-        let mut inner = shapes::uv_sphere(Vec3::ZERO, 0.95, 12, 24, false, 1);
+        let mut inner = shapes::uv_sphere(Vec3::ZERO, inner_radius, 12, 24, false, 1);
         inner.normals = None;
         let mut outer = shapes::uv_sphere(Vec3::ZERO, 1.0, 12, 24, true, 0);
         outer.normals = None;

@@ -5,12 +5,14 @@ use glam::{Vec3, Vec3A};
 use obvhs::{
     BvhBuildParams,
     aabb::Aabb,
-    cwbvh::{CwBvh, builder::build_cwbvh},
+    bvh2::reinsertion::ReinsertionOptimizer,
+    cwbvh::{CwBvh, bvh2_to_cwbvh::bvh2_to_cwbvh},
+    ploc::PlocBuilder,
     ray::Ray as BvhRay,
     triangle::Triangle,
 };
 use std::cell::Cell;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use super::geometry::{Hit, Ray, TriAttrs, TriExtra, Triangles};
 use super::watertight::{SoaTriangles, Watertight, intersect_group};
@@ -228,15 +230,28 @@ fn bvh_ray(ray: &Ray) -> BvhRay {
     }
 }
 
-/// obvhs's CWBVH over `boxes` (empty without any) and the time building it took.
+/// obvhs's CWBVH over `boxes` (empty without any) and the time building it took: its
+/// `build_cwbvh` with the `medium_build` parameters (PLOC, Meister and Bittner 2018, then
+/// reinsertion, then the collapse to eight-wide nodes of Ylitie et al. 2017), except that the
+/// children are not put in the Morton order that picks a traversal order from the ray's
+/// octant: `wide` orders children by their entry distance, and without that step 1.04 M
+/// triangles build in 0.60 s instead of 0.70 to 0.73 (README, "Speed").
 pub(super) fn build_bvh(boxes: &[Aabb]) -> (CwBvh, Duration) {
-    let mut build_time = Duration::default();
-    let bvh = if boxes.is_empty() {
-        CwBvh::default()
-    } else {
-        build_cwbvh(boxes, BvhBuildParams::medium_build(), &mut build_time)
-    };
-    (bvh, build_time)
+    if boxes.is_empty() {
+        return (CwBvh::default(), Duration::default());
+    }
+    let start = Instant::now();
+    let params = BvhBuildParams::medium_build();
+    let mut bvh2 = PlocBuilder::with_capacity(boxes.len()).build(
+        params.ploc_search_distance,
+        boxes,
+        (0..boxes.len() as u32).collect(),
+        params.sort_precision,
+        params.search_depth_threshold,
+    );
+    ReinsertionOptimizer::default().run(&mut bvh2, params.reinsertion_batch_ratio, None);
+    let bvh = bvh2_to_cwbvh(&bvh2, params.max_prims_per_leaf.clamp(1, 3), false, false);
+    (bvh, start.elapsed())
 }
 
 /// The box [min, max] padded by 1e-6 of its coordinates' magnitude plus 1e-7 of `size`, the
