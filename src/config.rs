@@ -217,7 +217,8 @@ mod tests {
 
     #[test]
     fn round_trips_through_toml_and_rejects_bad_values() {
-        let dir = std::env::temp_dir().join(format!("lucent-view-{}", std::process::id()));
+        let temp = tempfile::Builder::new().prefix("lucent-view-").tempdir().unwrap();
+        let dir = temp.path().join("view");
         let maps = dir.join("maps");
         std::fs::create_dir_all(&maps).unwrap();
         std::fs::write(maps.join("sky.hdr"), "").unwrap();
@@ -254,13 +255,11 @@ mod tests {
         assert!(err.contains("line 3, column ") && !err.contains('\n'), "{err}");
         std::fs::write(&path, "[environment]\nintensity = -1.0\n").unwrap();
         assert!(ViewFile::load(&path).unwrap_err().contains("intensity"));
-        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]
     fn material_and_light_edits_round_trip_and_errors_name_them() {
-        let dir = std::env::temp_dir().join(format!("lucent-view-edits-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
+        let dir = tempfile::Builder::new().prefix("lucent-view-edits-").tempdir().unwrap();
         let materials =
             vec![Material::lambert("wall", Vec3::ONE), Material { name: "glass".into(), ..Material::default() }];
         let light = PunctualLight {
@@ -284,7 +283,7 @@ mod tests {
         let mut view = ViewFile::default();
         view.record_edits((&materials, std::slice::from_ref(&light)), (&m, &l));
         assert_eq!((view.materials.len(), view.materials[0].index, view.lights.len()), (1, 1, 1));
-        let path = dir.join("edits.toml");
+        let path = dir.path().join("edits.toml");
         view.save(&path).unwrap();
         let text = std::fs::read_to_string(&path).unwrap();
         assert!(
@@ -315,6 +314,5 @@ mod tests {
                 .contains("base_color: 0.5 is not a colour")
         );
         assert!(bad("[[lights]]\nindex = 0\nname = \"lamp\"\nshine = 1\n").contains("unknown parameter \"shine\""));
-        std::fs::remove_dir_all(&dir).unwrap();
     }
 }

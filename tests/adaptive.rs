@@ -244,8 +244,7 @@ fn pixels_stop_alike_on_any_thread_count_and_in_windows_on_the_tile_grid() {
 fn region_pieces_with_a_threshold_merge_to_the_whole_render() {
     // Two bands on the tile grid of a 48x32 frame of the glass box (black space at the
     // sides, so pixels stop), rendered as pieces and merged: the same bytes as one render.
-    let dir = std::env::temp_dir().join(format!("lucent-adaptive-pieces-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = common::scratch("adaptive-pieces");
     let scene = common::asset("cornell-box-glass.gltf");
     let lucent = |args: &[&str]| {
         let o = Command::new(env!("CARGO_BIN_EXE_lucent")).args(args).output().unwrap();
@@ -263,13 +262,11 @@ fn region_pieces_with_a_threshold_merge_to_the_whole_render() {
     lucent(&["merge", &path("a.part"), &path("b.part"), "--out", &path("merged.exr")]);
     let (a, b) = (std::fs::read(path("whole.exr")).unwrap(), std::fs::read(path("merged.exr")).unwrap());
     assert!(a == b, "the merged pieces differ from the whole render");
-    std::fs::remove_dir_all(&dir).unwrap();
 }
 
 #[test]
 fn bad_thresholds_and_pieces_get_one_line_errors() {
-    let dir = std::env::temp_dir().join(format!("lucent-adaptive-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = common::scratch("adaptive");
     let (png, part) = (dir.join("x.png"), dir.join("x.part"));
     let view = dir.join("view.toml");
     std::fs::write(&view, "[settings]\nnoise_threshold = 5.0\n").unwrap();
@@ -301,5 +298,4 @@ fn bad_thresholds_and_pieces_get_one_line_errors() {
         .unwrap();
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success() && err.contains("--thresholds: 3 is not in 0..=1"), "{err}");
-    std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -152,7 +152,8 @@ fn the_estimate_covers_what_loading_and_building_take_and_is_not_far_above() {
 fn a_mesh_placed_many_times_is_stored_once_and_loads_in_bounded_memory() {
     let _turn = serial();
     // 2,048 triangles under 20,000 nodes: 41 M placed triangles, some 14 GB flattened.
-    let path = temp_dir("instanced").join("grid-2k-x-20k.gltf");
+    let dir = temp_dir("instanced");
+    let path = dir.join("grid-2k-x-20k.gltf");
     std::fs::write(&path, Grid { n: 32, copies: 20_000, ..Grid::default() }.file()).unwrap();
     let limits = Limits { memory: 200 * MB };
     let (scene, peak) = peak_of(|| {
@@ -542,10 +543,8 @@ fn the_film_estimate_covers_what_a_session_allocates_and_refuses_a_film_over_the
 
 // --- synthetic scenes ---
 
-fn temp_dir(what: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("lucent-bad-input-{what}-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+fn temp_dir(what: &str) -> common::Scratch {
+    common::scratch(&format!("bad-input-{what}"))
 }
 
 /// A synthetic mesh: a grid of n x n quads (2 n^2 triangles, none degenerate) with normals

@@ -3,17 +3,15 @@
 
 mod common;
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Output};
 
 fn lucent(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_lucent")).args(args).output().expect("runs")
 }
 
-fn out_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("lucent-cli-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+fn out_dir(name: &str) -> common::Scratch {
+    common::scratch(&format!("cli-{name}"))
 }
 
 fn stderr(o: &Output) -> String {
@@ -51,12 +49,12 @@ fn renders_png_and_exr_and_reports_figures() {
     let exr = image::open(dir.join("cornell.exr")).unwrap().into_rgb32f();
     let max = exr.as_raw().iter().fold(0.0f32, |a, &b| a.max(b));
     assert!(max > 1.0, "EXR keeps linear HDR radiance (the light is {max})");
-    std::fs::remove_dir_all(dir).unwrap();
 }
 
 #[test]
 fn a_time_budget_renders_what_fits() {
-    let out = out_dir("time").join("t.exr");
+    let dir = out_dir("time");
+    let out = dir.join("t.exr");
     let o = lucent(&["render", "--time", "0.5", "--width", "16", "--height", "16", "--out", out.to_str().unwrap()]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(out.exists());
@@ -77,7 +75,9 @@ fn bad_input_gives_one_line_errors_and_no_file() {
     fails_in_one_line(&["render", "--clamp", "-2", "--out", o], "--clamp: -2 is not a finite number", &out);
     fails_in_one_line(&["render", "--importance", "maybe", "--out", o], "--importance: 'maybe' is not on or off", &out);
     fails_in_one_line(&["view", "--screenshot", o], "--screenshot needs --spp", &out);
-    let directory = out_dir("a-directory.png");
+    let folder = out_dir("a-directory");
+    let directory = folder.join("a.png");
+    std::fs::create_dir(&directory).unwrap();
     let o = lucent(&["render", "--spp", "1", "--out", directory.to_str().unwrap()]);
     assert!(!o.status.success() && stderr(&o).contains("it is a directory"), "{}", stderr(&o));
     let o = out.to_str().unwrap();
@@ -91,7 +91,8 @@ fn bad_input_gives_one_line_errors_and_no_file() {
     fails_in_one_line(&["render", "--out", dir.join("x.jpg").to_str().unwrap()], ".png or .exr", &dir.join("x.jpg"));
     let unwritable = dir.join("missing-dir/x.png");
     fails_in_one_line(&["render", "--out", unwritable.to_str().unwrap()], "cannot write", &unwritable);
-    let garbage = out_dir("garbage").join("broken.glb");
+    let scene = out_dir("garbage");
+    let garbage = scene.join("broken.glb");
     std::fs::write(&garbage, b"glTF\x02\x00\x00\x00garbage").unwrap();
     fails_in_one_line(&["render", garbage.to_str().unwrap(), "--out", o], "broken.glb", &out);
 }
@@ -136,7 +137,8 @@ fn a_saved_view_renders_headless_and_options_override_it() {
     assert!(env_view.as_raw() == env_flags.as_raw(), "the view file sets the same environment as the flags");
     assert!(env_view.as_raw() != unlit.as_raw(), "the background lights the box");
     std::fs::write(&view, "[settings]\nwidth = \"wide\"\n").unwrap();
-    let clean = out_dir("view-bad").join("d.png");
+    let clean_dir = out_dir("view-bad");
+    let clean = clean_dir.join("d.png");
     fails_in_one_line(
         &["render", "--view", view.to_str().unwrap(), "--out", clean.to_str().unwrap()],
         "v.toml",
@@ -206,7 +208,8 @@ fn switching_the_terminator_offset_off_changes_a_smooth_scene_only() {
 
 #[test]
 fn distribution_ray_tracing_states_its_cost_before_it_starts() {
-    let out = out_dir("drt").join("drt.png");
+    let dir = out_dir("drt");
+    let out = dir.join("drt.png");
     let args = ["--integrator", "distribution", "--branching", "2", "--max-depth", "2", "--spp", "3"];
     let o =
         lucent(&[&["render"][..], &args, &["--width", "8", "--height", "8", "--out", out.to_str().unwrap()]].concat());

@@ -2,6 +2,8 @@
 //! errors that fall, fitted slopes near -1/2 for unbiased strategies and a bias floor for
 //! the grid, a Markdown table, and plots that decode.
 
+mod common;
+
 use std::collections::BTreeMap;
 use std::process::Command;
 
@@ -16,8 +18,7 @@ fn slope(points: &[(f64, u32, f64)]) -> f64 {
 
 #[test]
 fn a_tiny_study_writes_falling_errors_slopes_tables_and_plots() {
-    let dir = std::env::temp_dir().join(format!("lucent-convergence-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
+    let dir = common::scratch("convergence");
     let args = ["bench", "convergence", "--budget", "2", "--reference-budget", "10", "--size", "16"];
     let strategies = ["--strategies", "pt-cosine,pt-mis,grid-pixel", "--out", dir.to_str().unwrap()];
     let o = Command::new(env!("CARGO_BIN_EXE_lucent")).args(args).args(strategies).output().unwrap();

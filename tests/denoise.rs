@@ -10,7 +10,7 @@ use lucent::integrator::{Integrator, Settings};
 use lucent::loader::builtin;
 use lucent::render::{Job, RenderSession, Snapshot};
 use lucent::scene::{Scene, camera::Camera, geometry::Ray};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 use std::sync::Arc;
 
@@ -35,10 +35,8 @@ fn settings(size: u32, spp: u32) -> Settings {
     Settings { width: size, height: size, target_spp: Some(spp), ..Settings::default() }
 }
 
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("lucent-denoise-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+fn temp_dir(name: &str) -> common::Scratch {
+    common::scratch(&format!("denoise-{name}"))
 }
 
 #[test]

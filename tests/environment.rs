@@ -91,8 +91,7 @@ fn the_map_centre_is_seen_along_minus_z_with_the_sky_up_and_rotation_turns_it() 
             data.extend([base[0] + red, base[1], base[2]]);
         }
     }
-    let dir = std::env::temp_dir().join(format!("lucent-env-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = common::scratch("env");
     let path = dir.join("quadrants.exr");
     image::Rgb32FImage::from_raw(w, h, data).unwrap().save(&path).unwrap();
     let load = |rotation: f32| {
@@ -108,7 +107,6 @@ fn the_map_centre_is_seen_along_minus_z_with_the_sky_up_and_rotation_turns_it() 
     assert!(turned.radiance(Vec3::new(-1.0, 0.3, 0.0).normalize()).to_rgb().x > 1.0, "rotating by 180 swaps sides");
     let scaled = Environment::load(EnvSettings { map: Some(path.clone()), intensity: 3.0, ..EnvSettings::default() });
     assert!((scaled.unwrap().radiance(Vec3::NEG_Y).to_rgb().y - 0.6).abs() < 1e-6);
-    std::fs::remove_dir_all(dir).unwrap();
 }
 
 #[test]
@@ -236,8 +234,7 @@ fn bsdf_sampling_light_sampling_and_mis_agree_under_an_hdr_sky() {
 #[test]
 fn a_truncated_map_is_called_truncated_and_named() {
     let bytes = std::fs::read(concat!(env!("CARGO_MANIFEST_DIR"), "/assets/venice_sunset_1k.hdr")).unwrap();
-    let dir = std::env::temp_dir().join(format!("lucent-env-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = common::scratch("env");
     let path = dir.join("cut.hdr");
     std::fs::write(&path, &bytes[..bytes.len() / 3]).unwrap();
     let err =
@@ -248,7 +245,6 @@ fn a_truncated_map_is_called_truncated_and_named() {
         bytes.len() / 3
     );
     assert_eq!(err, want);
-    std::fs::remove_dir_all(&dir).unwrap();
 }
 
 #[test]

@@ -20,12 +20,8 @@ fn load(rel: &str) -> SceneDesc {
     gltf::load(&common::asset(rel)).unwrap_or_else(|e| panic!("{e}"))
 }
 
-fn temp(name: &str, bytes: &[u8]) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("lucent-gltf-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let path = dir.join(name);
-    std::fs::write(&path, bytes).unwrap();
-    path
+fn temp(name: &str, bytes: &[u8]) -> common::ScratchFile {
+    common::scratch_file("gltf", name, bytes)
 }
 
 /// A one-triangle glTF with an embedded buffer; `node` and `indices` are spliced in.
@@ -145,20 +141,21 @@ fn node_transforms_flatten_with_inverse_transpose_normals_and_mirrored_winding()
 
 #[test]
 fn malformed_files_give_one_line_errors() {
+    let dir = common::scratch("gltf-malformed");
     let cases: Vec<(&str, PathBuf)> = vec![
         ("no such file", common::asset("Box/glTF-Binary/Missing.glb")),
         ("truncated", {
             let bytes = std::fs::read(common::asset("Box/glTF-Binary/Box.glb")).unwrap();
-            temp("truncated.glb", &bytes[..bytes.len() / 2])
+            dir.write("truncated.glb", &bytes[..bytes.len() / 2])
         }),
         ("dangling accessor", {
             let text = std::fs::read_to_string(common::cornell_box_file()).unwrap();
             let mut doc: Value = serde_json::from_str(&text).unwrap();
             doc["meshes"][0]["primitives"][0]["attributes"]["POSITION"] = json!(999);
-            temp("dangling.gltf", &serde_json::to_vec(&doc).unwrap())
+            dir.write("dangling.gltf", &serde_json::to_vec(&doc).unwrap())
         }),
-        ("index out of range", temp("index.gltf", &one_triangle(json!({"mesh": 0}), [0, 1, 7]))),
-        ("not json", temp("garbage.gltf", b"{ this is not glTF")),
+        ("index out of range", dir.write("index.gltf", &one_triangle(json!({"mesh": 0}), [0, 1, 7]))),
+        ("not json", dir.write("garbage.gltf", b"{ this is not glTF")),
     ];
     for (what, path) in cases {
         let err = gltf::load(&path).err().unwrap_or_else(|| panic!("{what}: loaded")).to_string();
@@ -628,7 +625,7 @@ fn unlit_materials_show_their_base_colour_to_the_camera_and_light_nothing() {
 
 /// A one-triangle glTF with one 1x1 image and `textures` textures of it, whose meshes use
 /// `materials` in turn (one node each).
-fn with_materials(materials: Value, textures: usize) -> PathBuf {
+fn with_materials(materials: Value, textures: usize) -> common::ScratchFile {
     use image::ImageEncoder;
     let mut png = Vec::new();
     image::codecs::png::PngEncoder::new(&mut png)

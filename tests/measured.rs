@@ -89,7 +89,7 @@ fn a_measured_lambertian_in_a_uniform_sky_matches_the_analytic_one() {
 
 #[test]
 fn the_sidecar_assigns_tables_by_name_and_reports_bad_files_in_one_line() {
-    let dir = std::env::temp_dir().join(format!("lucent-measured-{}", std::process::id()));
+    let dir = common::scratch("measured");
     std::fs::create_dir_all(dir.join("brdfs")).unwrap();
     let scene = dir.join("Box.glb");
     std::fs::copy(common::asset("Box/glTF-Binary/Box.glb"), &scene).unwrap();
@@ -121,7 +121,6 @@ fn the_sidecar_assigns_tables_by_name_and_reports_bad_files_in_one_line() {
         let err = gltf::load(&scene).err().expect("a bad sidecar fails the load").to_string();
         assert!(err.contains(needle) && !err.contains('\n'), "{err}");
     }
-    std::fs::remove_dir_all(dir).unwrap();
 }
 
 fn dummy_surface() -> lucent::scene::Surface {

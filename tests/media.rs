@@ -330,8 +330,7 @@ fn density_grids_load_from_openvdb_and_bad_grids_are_refused_in_one_line() {
     assert!(smoke.max_density() > 0.3 && smoke.max_density() <= 1.0, "{}", smoke.max_density());
     let constant = DensityGrid::load_vdb(&grid_asset("constant.vdb"), Some("density")).unwrap();
     assert_eq!(constant.max_density(), 1.0);
-    let dir = std::env::temp_dir().join(format!("lucent-grids-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = common::scratch("grids");
     let garbage = dir.join("garbage.vdb");
     std::fs::write(&garbage, b"not a vdb file at all").unwrap();
     let cases = [
@@ -360,7 +359,6 @@ fn density_grids_load_from_openvdb_and_bad_grids_are_refused_in_one_line() {
     std::fs::write(dir.join("fog.media.toml"), "[grids.\"fog\"]\nfile = \"missing.vdb\"\ndensity = 1.0\n").unwrap();
     let err = lucent::loader::gltf::load(&scene).err().unwrap().to_string();
     assert!(err.contains("missing.vdb") && !err.contains('\n'), "{err}");
-    std::fs::remove_dir_all(&dir).unwrap();
 }
 
 #[test]

@@ -3,7 +3,9 @@
 //! process makes, bit for bit; pieces of another render, overlapping or missing ranges and
 //! windows and damaged piece files are refused in one line, and no output is written.
 
-use std::path::{Path, PathBuf};
+mod common;
+
+use std::path::Path;
 use std::process::Command;
 
 fn lucent(args: &[&str]) -> (bool, String) {
@@ -11,11 +13,9 @@ fn lucent(args: &[&str]) -> (bool, String) {
     (out.status.success(), String::from_utf8_lossy(&out.stderr).into_owned())
 }
 
-/// A folder of this test's own (tests run in parallel, and each removes its folder).
-fn dir(test: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("lucent-pieces-{}-{test}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
+/// A scratch folder of this test's own (tests run in parallel).
+fn dir(test: &str) -> common::Scratch {
+    common::scratch(&format!("pieces-{test}"))
 }
 
 fn render(out: &Path, extra: &[&str]) {
@@ -76,7 +76,6 @@ fn pieces_by_sample_range_merge_to_the_single_process_image_bit_for_bit() {
     refused(&["merge", &p("junk.part"), "--out", &bad], "bad header");
     refused(&["render", "--samples", "5..5", "--out", &p("x.part")], "A < B");
     assert!(!Path::new(&bad).exists(), "a refused merge writes nothing");
-    let _ = std::fs::remove_dir_all(&d);
 }
 
 /// Reads an EXR's RGB pixels.
@@ -127,7 +126,6 @@ fn pieces_by_window_and_sample_range_merge_to_the_single_process_image_bit_for_b
     refused(&[&["render", "--region", "0,0,25,18"], &size[..], &[&p("x.part")]].concat(), "outside the 24x18 frame");
     refused(&[&["render", "--region", "4,4,4,8"], &size[..], &[&p("x.part")]].concat(), "empty");
     assert!(!Path::new(&bad).exists(), "a refused merge writes nothing");
-    let _ = std::fs::remove_dir_all(&d);
 }
 
 #[test]
@@ -160,5 +158,4 @@ fn farm_job_scripts_name_every_piece_once_and_bad_requests_are_refused() {
     refused(&args(&farm(&["--pieces", "2", "--mem", "4G\n#SBATCH --x"])), "#SBATCH lines take no spaces");
     std::fs::write(d.join("pieces/old.part"), b"a piece of an earlier render").unwrap();
     refused(&args(&farm(&["--pieces", "2"])), "already holds pieces: give another --dir");
-    let _ = std::fs::remove_dir_all(&d);
 }

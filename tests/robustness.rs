@@ -13,7 +13,7 @@ use lucent::render::Snapshot;
 use lucent::scene::{MeshDesc, Scene, SceneDesc, camera::Camera, geometry::Ray, material::Material};
 use lucent::spectrum::Spectrum;
 use std::f32::consts::PI;
-use std::path::PathBuf;
+use std::path::Path;
 use std::sync::Arc;
 
 /// A closed sphere (shared vertices, one vertex per pole, the seam wrapped by index) whose
@@ -157,7 +157,7 @@ fn blocks(s: &Snapshot) -> Vec<(DVec3, DVec3)> {
 
 /// The Cornell box glTF under a new root node that scales it by `scale` and translates it
 /// by `offset` on every axis, as a file placing a model far from the origin would.
-fn cornell_placed(scale: f64, offset: f64) -> PathBuf {
+fn cornell_placed(scale: f64, offset: f64) -> common::ScratchFile {
     let text = std::fs::read_to_string(common::cornell_box_file()).unwrap();
     let mut doc: serde_json::Value = serde_json::from_str(&text).unwrap();
     let children = doc["scenes"][0]["nodes"].clone();
@@ -170,11 +170,8 @@ fn cornell_placed(scale: f64, offset: f64) -> PathBuf {
     }));
     let root = nodes.len() - 1;
     doc["scenes"][0]["nodes"] = serde_json::json!([root]);
-    let dir = std::env::temp_dir().join(format!("lucent-robust-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let path = dir.join(format!("cornell-{scale}-{offset}.gltf"));
-    std::fs::write(&path, serde_json::to_vec(&doc).unwrap()).unwrap();
-    path
+    let file = format!("cornell-{scale}-{offset}.gltf");
+    common::scratch_file("robust", &file, &serde_json::to_vec(&doc).unwrap())
 }
 
 #[test]
@@ -210,18 +207,18 @@ fn the_cornell_box_renders_the_same_at_any_scale_and_far_from_the_origin() {
 #[test]
 fn the_instanced_cornell_box_renders_the_same_at_any_scale_turn_and_offset() {
     let settings = Settings { width: 64, height: 64, target_spp: Some(32), seed: 11, ..Settings::default() };
-    let render = |path: PathBuf| {
-        let scene = Arc::new(Scene::build(gltf::load(&path).unwrap()));
+    let render = |path: &Path| {
+        let scene = Arc::new(Scene::build(gltf::load(path).unwrap()));
         common::render(&scene, scene.default_camera(1.0), settings, None)
     };
-    let reference = render(common::cornell_box_file());
+    let reference = render(&common::cornell_box_file());
     let variants = [(1e-4, 0.0), (1e4, 0.0), (1.0, 1e5), (1e-4, 1e5), (0.3, -2e3)];
     let z_max = common::sidak_z(1e-3, variants.len() * blocks(&reference).len() * 3);
     for (scale, offset) in variants {
         let path = cornell_placed_twice(scale, offset);
         let scene = Scene::build(gltf::load(&path).unwrap());
         assert_eq!(scene.geometry.instance_count(), 16, "the 8 meshes, each placed twice");
-        let snap = render(path);
+        let snap = render(&path);
         common::assert_blocks_agree(&snap, &reference, z_max, &format!("scale {scale}, offset {offset}"));
     }
 }
@@ -230,7 +227,7 @@ fn the_instanced_cornell_box_renders_the_same_at_any_scale_turn_and_offset() {
 /// translate it by `offset` on every axis, the second copy 2,000 box sizes behind the first
 /// one's camera (what it sends back into the first box is below 1e-6 of its light), so that
 /// every mesh is instanced. The first copy's camera is the file's first.
-fn cornell_placed_twice(scale: f64, offset: f64) -> PathBuf {
+fn cornell_placed_twice(scale: f64, offset: f64) -> common::ScratchFile {
     let text = std::fs::read_to_string(common::cornell_box_file()).unwrap();
     let mut doc: serde_json::Value = serde_json::from_str(&text).unwrap();
     let children = doc["scenes"][0]["nodes"].clone();
@@ -248,11 +245,8 @@ fn cornell_placed_twice(scale: f64, offset: f64) -> PathBuf {
     }
     // The walk visits the last root first: the first copy's camera comes first.
     doc["scenes"][0]["nodes"] = serde_json::json!([first + 1, first]);
-    let dir = std::env::temp_dir().join(format!("lucent-robust-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let path = dir.join(format!("cornell-twice-{scale}-{offset}.gltf"));
-    std::fs::write(&path, serde_json::to_vec(&doc).unwrap()).unwrap();
-    path
+    let file = format!("cornell-twice-{scale}-{offset}.gltf");
+    common::scratch_file("robust", &file, &serde_json::to_vec(&doc).unwrap())
 }
 
 #[test]

@@ -21,11 +21,8 @@ use serde_json::{Value, json};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("lucent-save-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+fn temp_dir(name: &str) -> common::Scratch {
+    common::scratch(&format!("save-{name}"))
 }
 
 /// The Cornell box with KHR_lights_punctual lights of every kind: a point and a spot light
@@ -213,7 +210,6 @@ fn an_unedited_save_loads_to_the_same_scene_and_keeps_every_byte_of_data() {
             assert_eq!(bin(&out), bin(source.as_deref().unwrap()), "{name}: the BIN chunk is the same bytes");
         }
     }
-    std::fs::remove_dir_all(&dir).unwrap();
 }
 
 /// The URI of file `name` beside `source`, seen from folder `from` (both under the temporary
@@ -272,7 +268,6 @@ fn every_edited_parameter_and_light_loads_back_as_edited_and_everything_else_is_
         }
         assert_kept(&json_of(source.as_deref()), &json_of(Some(&out)), &original.lights, name);
     }
-    std::fs::remove_dir_all(&dir).unwrap();
 }
 
 /// Everything outside the materials, the lights and the nodes placing them is as it was
@@ -385,7 +380,6 @@ fn the_khronos_validator_finds_no_error_in_saved_files() {
     std::fs::write(&bad, serde_json::to_vec(&doc).unwrap()).unwrap();
     let reports = validate(std::slice::from_ref(&bad)).unwrap();
     assert!(reports[0].0 > 0, "{}", reports[0].1);
-    std::fs::remove_dir_all(&dir).unwrap();
 }
 
 #[test]
@@ -407,16 +401,15 @@ fn bad_output_paths_fail_in_one_line_and_leave_nothing() {
     std::fs::write(&view, "[[materials]]\nindex = 0\nname = \"white\"\nroughness = 0.25\n").unwrap();
     let blocker = dir.join("a-file");
     std::fs::write(&blocker, b"x").unwrap();
-    for out in [dir.join("missing/box.gltf"), blocker.join("box.gltf"), dir.clone(), dir.join("box.glb")] {
+    for out in [dir.join("missing/box.gltf"), blocker.join("box.gltf"), dir.to_path_buf(), dir.join("box.glb")] {
         let run = lucent(&["render", "--view", view.to_str().unwrap(), "--save-gltf", out.to_str().unwrap()]);
         let stderr = String::from_utf8_lossy(&run.stderr);
         assert!(!run.status.success(), "{}", out.display());
         assert_eq!(stderr.trim().lines().count(), 1, "one line: {stderr}");
         assert!(stderr.starts_with("error: ") && stderr.contains(&*out.to_string_lossy()), "{stderr}");
     }
-    let left: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name()).collect();
+    let left: Vec<_> = std::fs::read_dir(&*dir).unwrap().map(|e| e.unwrap().file_name()).collect();
     assert_eq!(left.len(), 2, "only the view file and the blocker, no partial file: {left:?}");
-    std::fs::remove_dir_all(&dir).unwrap();
 }
 
 #[test]
@@ -459,7 +452,6 @@ fn render_applies_a_view_files_edits_as_the_saved_gltf_holds_them() {
     let (ok, err) =
         lucent(&[&["render", "--view", &path("bad.toml")][..], &common, &["--out", &path("x.png")]].concat());
     assert!(!ok && err.contains("unknown parameter \"roughnes\""), "{err}");
-    std::fs::remove_dir_all(&dir).unwrap();
 }
 
 #[test]
@@ -498,5 +490,4 @@ fn the_viewer_state_saves_and_reloads_its_edits_through_view_files_and_gltf() {
     // A bad path shows its error and writes nothing.
     state.gltf_path = dir.join("nowhere/x.gltf").display().to_string();
     assert!(state.save_gltf().unwrap_err().contains("nowhere"));
-    std::fs::remove_dir_all(&dir).unwrap();
 }

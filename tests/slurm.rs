@@ -5,6 +5,8 @@
 //! preemption does). Without a cluster the test says so and passes, unless
 //! LUCENT_REQUIRE_SLURM is set (CI sets it, so there it must run).
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::{Duration, Instant};
@@ -71,8 +73,7 @@ fn farm_job_scripts_merge_to_the_single_process_image_despite_a_killed_and_a_req
         eprintln!("no Slurm cluster answers (sinfo): the farm test needs one (.ci/slurm-cluster start)");
         return;
     }
-    let dir = std::env::temp_dir().join(format!("lucent-slurm-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
+    let dir = common::scratch("slurm");
     let p = |name: &str| dir.join(name).to_str().unwrap().to_owned();
     let lucent = env!("CARGO_BIN_EXE_lucent");
     let farm = [
@@ -142,5 +143,4 @@ fn farm_job_scripts_merge_to_the_single_process_image_despite_a_killed_and_a_req
         std::fs::read(dir.join("merged.exr")).unwrap(),
         "the farm's merge differs from the single-process render"
     );
-    let _ = std::fs::remove_dir_all(&dir);
 }

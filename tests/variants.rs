@@ -208,12 +208,8 @@ fn meshopt_triangle(positions: [[f32; 3]; 3], edit: impl Fn(&mut Value)) -> Vec<
     serde_json::to_vec(&doc).unwrap()
 }
 
-fn temp(name: &str, bytes: &[u8]) -> std::path::PathBuf {
-    let dir = std::env::temp_dir().join(format!("lucent-variants-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let path = dir.join(name);
-    std::fs::write(&path, bytes).unwrap();
-    path
+fn temp(name: &str, bytes: &[u8]) -> common::ScratchFile {
+    common::scratch_file("variants", name, bytes)
 }
 
 #[test]
@@ -273,7 +269,7 @@ fn bad_meshopt_streams_are_refused_in_one_line() {
 
 /// The Draco glass box with `edit` applied to its JSON and `garble` to its buffer, written
 /// beside a copy of its buffer.
-fn draco_box(name: &str, edit: impl Fn(&mut Value), garble: impl Fn(&mut Vec<u8>, &Value)) -> std::path::PathBuf {
+fn draco_box(name: &str, edit: impl Fn(&mut Value), garble: impl Fn(&mut Vec<u8>, &Value)) -> common::ScratchFile {
     let dir = common::asset("draco");
     let mut doc: Value = serde_json::from_slice(&std::fs::read(dir.join("cornell-box-glass.gltf")).unwrap()).unwrap();
     let mut bin = std::fs::read(dir.join("cornell-box-glass.bin")).unwrap();
@@ -289,7 +285,7 @@ fn bad_draco_streams_are_refused_in_one_line() {
     let ext = |d: &mut Value| -> Value {
         d["meshes"][0]["primitives"][0]["extensions"]["KHR_draco_mesh_compression"].clone()
     };
-    let cases: Vec<(&str, std::path::PathBuf, &str)> = vec![
+    let cases: Vec<(&str, common::ScratchFile, &str)> = vec![
         (
             "short",
             draco_box(

@@ -29,10 +29,8 @@ fn wait_for_load(state: &mut ViewerState) {
     }
 }
 
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("lucent-viewer-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+fn temp_dir(name: &str) -> common::Scratch {
+    common::scratch(&format!("viewer-{name}"))
 }
 
 #[test]
@@ -40,7 +38,8 @@ fn a_malformed_dropped_file_reports_its_error_and_the_old_scene_keeps_rendering(
     let mut state = viewer();
     let first = state.wait_for_update(None, Duration::from_secs(30)).expect("renders");
     let generation = state.generation();
-    let bad = temp_dir("bad").join("broken.glb");
+    let dir = temp_dir("bad");
+    let bad = dir.join("broken.glb");
     std::fs::write(&bad, b"glTF\x02\x00\x00\x00not really").unwrap();
     state.open(bad.clone());
     assert!(state.loading_status().is_some());
@@ -163,7 +162,7 @@ fn after_a_camera_move_the_preview_sharpens_one_level_per_image() {
 fn screenshots_go_beside_the_scene_or_to_the_pictures_folder() {
     use lucent::viewer::state::default_screenshot_dir;
     let dir = temp_dir("shots");
-    assert_eq!(default_screenshot_dir(Some(&dir.join("scene.gltf"))), dir, "a writable scene folder");
+    assert_eq!(default_screenshot_dir(Some(&dir.join("scene.gltf"))), *dir, "a writable scene folder");
     let elsewhere = default_screenshot_dir(Some(&dir.join("missing/scene.gltf")));
     assert!(elsewhere.ends_with("Lucent") || elsewhere == Path::new("."), "{}", elsewhere.display());
     assert_eq!(default_screenshot_dir(None), elsewhere, "the built-in scene has no folder");
@@ -177,7 +176,8 @@ fn screenshots_go_beside_the_scene_or_to_the_pictures_folder() {
 #[test]
 fn views_save_and_load() {
     let mut state = viewer();
-    state.view_path = temp_dir("view").join("v.toml").to_string_lossy().into_owned();
+    let dir = temp_dir("view");
+    state.view_path = dir.join("v.toml").to_string_lossy().into_owned();
     state.camera.dolly(2.0);
     state.settings.max_depth = 11;
     state.save_view().unwrap();
@@ -304,7 +304,7 @@ fn xvfb_run() -> Option<PathBuf> {
 
 /// For a test in a real window: xvfb-run, a temporary folder and a private runtime folder
 /// in it; None (the test is skipped, saying so) without xvfb-run, unless LUCENT_REQUIRE_XVFB.
-fn under_xvfb(name: &str) -> Option<(PathBuf, PathBuf, PathBuf)> {
+fn under_xvfb(name: &str) -> Option<(PathBuf, common::Scratch, PathBuf)> {
     let Some(xvfb) = xvfb_run() else {
         assert!(
             std::env::var_os("LUCENT_REQUIRE_XVFB").is_none(),

@@ -18,7 +18,6 @@ use lucent::viewer::histogram::{BINS, Histogram, PER_STOP, auto_exposure, clip_p
 use lucent::viewer::inspect::{Probes, pixel_at, pixel_values};
 use lucent::viewer::progress::{Target, TargetKind, format_seconds, progress};
 use lucent::viewer::state::ViewerState;
-use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 fn viewer() -> ViewerState {
@@ -39,11 +38,8 @@ fn image_with(state: &ViewerState, spp: u32) -> std::sync::Arc<Snapshot> {
     }
 }
 
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("lucent-tools-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+fn temp_dir(name: &str) -> common::Scratch {
+    common::scratch(&format!("tools-{name}"))
 }
 
 /// A `width` x `height` snapshot whose pixel i has mean (i, 2i, 3i) / 100 and variance i / 1e4.
@@ -207,7 +203,8 @@ fn a_pin_round_trips_through_its_cache_file_with_its_metadata() {
 
 #[test]
 fn the_pin_survives_a_restart_of_accumulation_and_of_the_viewer() {
-    let store = PinStore { dir: temp_dir("restart") };
+    let dir = temp_dir("restart");
+    let store = PinStore { dir: dir.to_path_buf() };
     let mut state = viewer();
     state.compare.store = Some(store.clone());
     state.load_pin();

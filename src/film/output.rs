@@ -108,14 +108,12 @@ mod tests {
 
     #[test]
     fn exr_round_trips_linear_values_exactly() {
-        let dir = std::env::temp_dir().join(format!("lucent-out-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let path = dir.join("x.exr");
+        let dir = tempfile::Builder::new().prefix("lucent-out-").tempdir().unwrap();
+        let path = dir.path().join("x.exr");
         let pixels = vec![Vec3::new(0.1, 2.5, 1e4), Vec3::new(0.0, 1e-6, 3.0)];
         write_image(&path, 2, 1, &pixels, &Display::default()).unwrap();
         let back = image::open(&path).unwrap().into_rgb32f();
         assert_eq!(back.as_raw().as_slice(), &[0.1, 2.5, 1e4, 0.0, 1e-6, 3.0]);
         assert!(format_of(Path::new("a.jpg")).is_err());
-        std::fs::remove_dir_all(&dir).unwrap();
     }
 }

@@ -7,7 +7,7 @@ use lucent::integrator::Settings;
 use lucent::render::{Job, RenderSession, Snapshot};
 use lucent::scene::{Scene, camera::Camera};
 use statrs::distribution::{ChiSquared, ContinuousCDF, Normal};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 /// A file under tests/assets (see its INDEX.md).
@@ -18,6 +18,60 @@ pub fn asset(rel: &str) -> PathBuf {
 /// The Cornell box glTF that the binary embeds as its built-in scene.
 pub fn cornell_box_file() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("assets/cornell-box.gltf")
+}
+
+/// A test's scratch folder (derefs to its path): removed on drop, kept if the test fails.
+pub struct Scratch(Option<tempfile::TempDir>);
+
+/// A new, empty scratch folder in the system's temporary folder, named `lucent-{name}-...`.
+pub fn scratch(name: &str) -> Scratch {
+    let dir = tempfile::Builder::new().prefix(&format!("lucent-{name}-")).tempdir();
+    Scratch(Some(dir.expect("a scratch folder")))
+}
+
+impl Scratch {
+    /// Writes `bytes` to the file `name` in this folder and returns its path.
+    pub fn write(&self, name: &str, bytes: &[u8]) -> PathBuf {
+        let path = self.join(name);
+        std::fs::write(&path, bytes).unwrap();
+        path
+    }
+}
+
+impl std::ops::Deref for Scratch {
+    type Target = Path;
+    fn deref(&self) -> &Path {
+        self.0.as_ref().expect("taken only on drop").path()
+    }
+}
+
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        if std::thread::panicking()
+            && let Some(dir) = self.0.take()
+        {
+            eprintln!("the failing test's files are kept in {}", dir.keep().display());
+        }
+    }
+}
+
+/// A file alone in a scratch folder, removed or kept with it (derefs to the file's path).
+pub struct ScratchFile {
+    path: PathBuf,
+    _dir: Scratch,
+}
+
+/// `bytes` written to the file `file` in a new scratch folder named after `name`.
+pub fn scratch_file(name: &str, file: &str, bytes: &[u8]) -> ScratchFile {
+    let dir = scratch(name);
+    ScratchFile { path: dir.write(file, bytes), _dir: dir }
+}
+
+impl std::ops::Deref for ScratchFile {
+    type Target = Path;
+    fn deref(&self) -> &Path {
+        &self.path
+    }
 }
 
 /// Renders `scene` from `camera` to `settings.target_spp` on `threads` workers.
