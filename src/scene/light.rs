@@ -139,14 +139,23 @@ pub enum LightRef {
 pub struct LightSampler {
     lights: Vec<LightRef>,
     table: AliasTable,
-    triangle_pmf: Vec<f32>,
+    /// Per triangle: the probability of choosing it and its area (empty without emitters).
+    triangles: Vec<TriangleLight>,
     environment_pmf: f32,
+}
+
+/// What light sampling and MIS read of an emissive triangle, kept beside each other.
+#[derive(Clone, Copy, Default)]
+struct TriangleLight {
+    pmf: f32,
+    area: f32,
 }
 
 impl LightSampler {
     /// Builds the distribution from (light, power) pairs; lights of zero power are
-    /// never chosen. `triangle_count` sizes the per-triangle pmf lookup used by MIS.
-    pub fn new(candidates: Vec<(LightRef, f32)>, triangle_count: usize) -> Self {
+    /// never chosen. `areas` holds, per triangle, the area of each emissive one (empty
+    /// without any); it sizes the per-triangle lookup used by MIS.
+    pub fn new(candidates: Vec<(LightRef, f32)>, areas: &[f32]) -> Self {
         let candidates: Vec<_> = candidates.into_iter().filter(|&(_, p)| p > 0.0 && p.is_finite()).collect();
         let weights: Vec<f64> = candidates.iter().map(|&(_, p)| p as f64).collect();
         let Some(table) = AliasTable::new(&weights) else { return Self::default() };
@@ -156,10 +165,10 @@ impl LightSampler {
             let pmf = sampler.table.pmf(i);
             match light {
                 LightRef::Triangle(t) => {
-                    if sampler.triangle_pmf.is_empty() {
-                        sampler.triangle_pmf = vec![0.0; triangle_count];
+                    if sampler.triangles.is_empty() {
+                        sampler.triangles = areas.iter().map(|&area| TriangleLight { pmf: 0.0, area }).collect();
                     }
-                    sampler.triangle_pmf[t as usize] = pmf;
+                    sampler.triangles[t as usize].pmf = pmf;
                 }
                 LightRef::Environment => sampler.environment_pmf = pmf,
                 LightRef::Punctual(_) => {}
@@ -189,7 +198,13 @@ impl LightSampler {
 
     /// Probability that `sample` picks emissive triangle `tri` (0 for non-emitters).
     pub fn triangle_pmf(&self, tri: u32) -> f32 {
-        self.triangle_pmf.get(tri as usize).copied().unwrap_or(0.0)
+        self.triangle(tri).pmf
+    }
+
+    /// Emissive triangle `tri`'s choice probability and area (zeros for non-emitters).
+    #[inline]
+    fn triangle(&self, tri: u32) -> TriangleLight {
+        self.triangles.get(tri as usize).copied().unwrap_or_default()
     }
 
     /// Probability that `sample` picks the environment.
@@ -264,18 +279,20 @@ impl Scene {
         match light {
             LightRef::Triangle(tri) => {
                 let b = warp::uniform_triangle(u);
-                let emitter = self.light_point(tri, b);
-                let q = emitter.p;
+                let (q, error, ng, material) = self.light_position(tri, b);
                 let to_light = q - p;
                 let dist2 = to_light.length_squared();
                 let wi = to_light / dist2.sqrt();
-                let cos_light = -wi.dot(emitter.ng);
+                let cos_light = -wi.dot(ng);
                 if cos_light <= 0.0 || !wi.is_finite() {
                     return None;
                 }
-                let radiance = self.emission(&emitter);
-                let pdf = pmf * dist2 / (cos_light * self.triangle_area(tri));
-                let target = LightTarget::Surface { p: q, error: emitter.p_error, n: emitter.ng };
+                let radiance = match self.materials[material as usize].uniform_emission() {
+                    Some(radiance) => radiance,
+                    None => self.emission(&self.light_point(tri, b)),
+                };
+                let pdf = pmf * dist2 / (cos_light * self.light_sampler.triangle(tri).area);
+                let target = LightTarget::Surface { p: q, error, n: ng };
                 Some(LightSample { wi, radiance, pdf, target, is_delta: false })
             }
             LightRef::Punctual(i) => {
@@ -313,8 +330,9 @@ impl Scene {
         match hit {
             LightHit::Emitter { surface, wo, distance: t } => {
                 let cos_light = surface.ng.dot(wo);
-                let area = self.triangle_area(surface.tri);
-                self.light_sampler.triangle_pmf(surface.tri) * t * t / (cos_light * area)
+                // Surfaces that emit nothing light sampling could choose have no area here.
+                let TriangleLight { pmf, area } = self.light_sampler.triangle(surface.tri);
+                if pmf == 0.0 { 0.0 } else { pmf * t * t / (cos_light * area) }
             }
             LightHit::Escaped(d) => match &self.environment {
                 Some(env) => self.light_sampler.environment_pmf() * env.pdf(d),
@@ -337,7 +355,7 @@ mod tests {
                 (LightRef::Triangle(2), 0.0),
                 (LightRef::Environment, 1.0),
             ],
-            3,
+            &[1.0, 1.0, 1.0],
         );
         assert_eq!(s.len(), 3);
         let mut counts = std::collections::HashMap::new();

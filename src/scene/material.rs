@@ -599,6 +599,12 @@ impl Material {
         Spectrum::from_illuminant_rgb(self.base_color * surface.color.xyz() * tex.xyz())
     }
 
+    /// The emitted radiance where it is the same all over the surface: neither textured
+    /// nor unlit (whose colour follows the vertex colours and the base colour texture).
+    pub fn uniform_emission(&self) -> Option<Spectrum> {
+        (!self.unlit && self.emissive_tex.is_none()).then(|| Spectrum::from_illuminant_rgb(self.emitted()))
+    }
+
     /// Emitted radiance at a surface point (the same from every direction on the front side).
     pub fn emission(&self, textures: &[Texture], images: &[Image], surface: &Surface) -> Spectrum {
         if self.unlit {
