@@ -1,7 +1,8 @@
 //! The render session: a new job bumps the generation, and no sample of the old job
 //! reaches the new image (it equals a fresh render of the new job, bit for bit); a job
 //! whose film would not fit in the memory limit is refused before it is allocated; a job
-//! with a deadline ends there.
+//! with a deadline ends there; a session asked for images at the end only builds them for
+//! its last snapshot alone.
 
 mod common;
 
@@ -56,6 +57,57 @@ fn a_job_without_a_sample_target_ends_at_its_deadline() {
         assert!(waited.elapsed() < Duration::from_secs(60), "the job did not end at its deadline");
         latest = session.wait_for_update(latest.as_ref(), Duration::from_secs(1)).or(latest);
     }
+}
+
+#[test]
+fn with_images_at_the_end_only_the_last_snapshot_has_them_and_they_are_the_same() {
+    // Snapshots before the last carry counts and no images; the last one's images are
+    // those of a session that built images after every pass, bit for bit, AOVs and the
+    // noise threshold's per-pixel counts included.
+    let scene = Arc::new(Scene::build(builtin::cornell_box()));
+    let settings = Settings {
+        width: 64,
+        height: 64,
+        target_spp: Some(16),
+        noise_threshold: Some(0.01),
+        min_spp: 4,
+        ..Settings::default()
+    };
+    let job = |settings| Job {
+        scene: Arc::clone(&scene),
+        camera: scene.default_camera(1.0),
+        settings,
+        window: None,
+        aovs: true,
+    };
+
+    // Without a sample target or a noise threshold the passes go on until the session is
+    // dropped, and every snapshot after the first few is one the flag applies to.
+    let endless =
+        RenderSession::new(job(Settings { target_spp: None, noise_threshold: None, ..settings }), Some(2)).unwrap();
+    endless.images_at_end_only();
+    let (mut latest, waited) = (None, Instant::now());
+    loop {
+        assert!(waited.elapsed() < Duration::from_secs(60), "no snapshot without images");
+        let Some(s) = endless.wait_for_update(latest.as_ref(), Duration::from_secs(1)) else { continue };
+        assert!(!s.done);
+        if s.mean.is_empty() {
+            assert!(s.variance.is_empty() && s.pixel_spp.is_empty() && s.aovs.is_none());
+            assert!(s.spp > 0 && s.samples > 0 && (0.0..=1.0).contains(&s.active_share()));
+            break;
+        }
+        latest = Some(s);
+    }
+    drop(endless);
+
+    let session = RenderSession::new(job(settings), Some(2)).unwrap();
+    session.images_at_end_only();
+    let last = session.wait_until_done();
+    let full = RenderSession::new(job(settings), Some(2)).unwrap().wait_until_done();
+    assert_eq!(last.mean.len(), 64 * 64);
+    assert!(last.mean == full.mean && last.variance == full.variance && last.pixel_spp == full.pixel_spp);
+    let (a, b) = (last.aovs.as_ref().unwrap(), full.aovs.as_ref().unwrap());
+    assert!(a.albedo == b.albedo && a.normal == b.normal);
 }
 
 #[test]

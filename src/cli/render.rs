@@ -111,6 +111,8 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     if let Some(deadline) = args.time.and_then(|t| start.checked_add(Duration::try_from_secs_f64(t).ok()?)) {
         session.stop_at(deadline);
     }
+    // The progress bar reads counts; only the last snapshot's images are written.
+    session.images_at_end_only();
     eprintln!("{}: {}", scene.name, geometry_line(&scene.geometry));
     eprintln!("{}: simulating {}", scene.name, crate::integrator::simulated_effects(&scene, &settings));
 
