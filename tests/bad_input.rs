@@ -110,7 +110,7 @@ fn the_estimate_covers_what_loading_and_building_take_and_is_not_far_above() {
     ];
     let generous = Limits { memory: 1 << 40 };
     let mut files: Vec<(String, PathBuf)> = models.iter().map(|m| (m.to_string(), common::asset(m))).collect();
-    let dir = temp_dir("estimate");
+    let dir = common::scratch("bad-input-estimate");
     for (name, doc) in [
         ("grid-320k.gltf", Grid { n: 400, ..Grid::default() }.file()),
         ("grid-normal-mapped-100k.gltf", Grid { n: 224, normal_mapped: true, ..Grid::default() }.file()),
@@ -152,7 +152,7 @@ fn the_estimate_covers_what_loading_and_building_take_and_is_not_far_above() {
 fn a_mesh_placed_many_times_is_stored_once_and_loads_in_bounded_memory() {
     let _turn = serial();
     // 2,048 triangles under 20,000 nodes: 41 M placed triangles, some 14 GB flattened.
-    let dir = temp_dir("instanced");
+    let dir = common::scratch("bad-input-instanced");
     let path = dir.join("grid-2k-x-20k.gltf");
     std::fs::write(&path, Grid { n: 32, copies: 20_000, ..Grid::default() }.file()).unwrap();
     let limits = Limits { memory: 200 * MB };
@@ -542,10 +542,6 @@ fn the_film_estimate_covers_what_a_session_allocates_and_refuses_a_film_over_the
 }
 
 // --- synthetic scenes ---
-
-fn temp_dir(what: &str) -> common::Scratch {
-    common::scratch(&format!("bad-input-{what}"))
-}
 
 /// A synthetic mesh: a grid of n x n quads (2 n^2 triangles, none degenerate) with normals
 /// and UVs, textured by a 2x2 PNG.

@@ -10,10 +10,6 @@ fn lucent(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_lucent")).args(args).output().expect("runs")
 }
 
-fn out_dir(name: &str) -> common::Scratch {
-    common::scratch(&format!("cli-{name}"))
-}
-
 fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }
@@ -33,7 +29,7 @@ fn fails_in_one_line(args: &[&str], needle: &str, out: &Path) {
 
 #[test]
 fn renders_png_and_exr_and_reports_figures() {
-    let dir = out_dir("ok");
+    let dir = common::scratch("cli-ok");
     for name in ["cornell.png", "cornell.exr"] {
         let out = dir.join(name);
         let o = lucent(&["render", "--spp", "4", "--width", "40", "--height", "30", "--out", out.to_str().unwrap()]);
@@ -53,7 +49,7 @@ fn renders_png_and_exr_and_reports_figures() {
 
 #[test]
 fn a_time_budget_renders_what_fits() {
-    let dir = out_dir("time");
+    let dir = common::scratch("cli-time");
     let out = dir.join("t.exr");
     let o = lucent(&["render", "--time", "0.5", "--width", "16", "--height", "16", "--out", out.to_str().unwrap()]);
     assert!(o.status.success(), "{}", stderr(&o));
@@ -62,7 +58,7 @@ fn a_time_budget_renders_what_fits() {
 
 #[test]
 fn bad_input_gives_one_line_errors_and_no_file() {
-    let dir = out_dir("bad");
+    let dir = common::scratch("cli-bad");
     let out = dir.join("x.png");
     let o = out.to_str().unwrap();
     fails_in_one_line(&["render", "/no/such/scene.glb", "--out", o], "no such file", &out);
@@ -75,7 +71,7 @@ fn bad_input_gives_one_line_errors_and_no_file() {
     fails_in_one_line(&["render", "--clamp", "-2", "--out", o], "--clamp: -2 is not a finite number", &out);
     fails_in_one_line(&["render", "--importance", "maybe", "--out", o], "--importance: 'maybe' is not on or off", &out);
     fails_in_one_line(&["view", "--screenshot", o], "--screenshot needs --spp", &out);
-    let folder = out_dir("a-directory");
+    let folder = common::scratch("cli-a-directory");
     let directory = folder.join("a.png");
     std::fs::create_dir(&directory).unwrap();
     let o = lucent(&["render", "--spp", "1", "--out", directory.to_str().unwrap()]);
@@ -91,7 +87,7 @@ fn bad_input_gives_one_line_errors_and_no_file() {
     fails_in_one_line(&["render", "--out", dir.join("x.jpg").to_str().unwrap()], ".png or .exr", &dir.join("x.jpg"));
     let unwritable = dir.join("missing-dir/x.png");
     fails_in_one_line(&["render", "--out", unwritable.to_str().unwrap()], "cannot write", &unwritable);
-    let scene = out_dir("garbage");
+    let scene = common::scratch("cli-garbage");
     let garbage = scene.join("broken.glb");
     std::fs::write(&garbage, b"glTF\x02\x00\x00\x00garbage").unwrap();
     fails_in_one_line(&["render", garbage.to_str().unwrap(), "--out", o], "broken.glb", &out);
@@ -101,7 +97,7 @@ fn bad_input_gives_one_line_errors_and_no_file() {
 fn a_saved_view_renders_headless_and_options_override_it() {
     use lucent::config::ViewFile;
     use lucent::integrator::Settings;
-    let dir = out_dir("view");
+    let dir = common::scratch("cli-view");
     let view = dir.join("v.toml");
     let settings = Settings { width: 24, height: 16, max_depth: 0, ..Settings::default() };
     ViewFile { settings, ..ViewFile::default() }.save(&view).unwrap();
@@ -137,7 +133,7 @@ fn a_saved_view_renders_headless_and_options_override_it() {
     assert!(env_view.as_raw() == env_flags.as_raw(), "the view file sets the same environment as the flags");
     assert!(env_view.as_raw() != unlit.as_raw(), "the background lights the box");
     std::fs::write(&view, "[settings]\nwidth = \"wide\"\n").unwrap();
-    let clean_dir = out_dir("view-bad");
+    let clean_dir = common::scratch("cli-view-bad");
     let clean = clean_dir.join("d.png");
     fails_in_one_line(
         &["render", "--view", view.to_str().unwrap(), "--out", clean.to_str().unwrap()],
@@ -149,7 +145,7 @@ fn a_saved_view_renders_headless_and_options_override_it() {
 #[test]
 fn the_built_in_sky_is_chosen_by_name_on_the_command_line_and_in_a_view_file() {
     // The box's open front sees the sky: the map lights it, alike from the flag and the file.
-    let dir = out_dir("built-in");
+    let dir = common::scratch("cli-built-in");
     let render = |extra: &[&str], out: &str| {
         let out = dir.join(out);
         let mut args =
@@ -188,7 +184,7 @@ fn bench_robustness_measures_every_mechanism_against_all_on() {
 #[test]
 fn switching_the_terminator_offset_off_changes_a_smooth_scene_only() {
     // The Cornell box is flat: no lift, the same image. The coarse sphere changes.
-    let dir = out_dir("without");
+    let dir = common::scratch("cli-without");
     let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/docs/scenes/terminator.gltf");
     for (name, args) in [("cornell", vec![]), ("sphere", vec![scene])] {
         let mut images = Vec::new();
@@ -208,7 +204,7 @@ fn switching_the_terminator_offset_off_changes_a_smooth_scene_only() {
 
 #[test]
 fn distribution_ray_tracing_states_its_cost_before_it_starts() {
-    let dir = out_dir("drt");
+    let dir = common::scratch("cli-drt");
     let out = dir.join("drt.png");
     let args = ["--integrator", "distribution", "--branching", "2", "--max-depth", "2", "--spp", "3"];
     let o =

@@ -35,10 +35,6 @@ fn settings(size: u32, spp: u32) -> Settings {
     Settings { width: size, height: size, target_spp: Some(spp), ..Settings::default() }
 }
 
-fn temp_dir(name: &str) -> common::Scratch {
-    common::scratch(&format!("denoise-{name}"))
-}
-
 #[test]
 fn asking_for_aovs_leaves_the_radiance_unchanged() {
     let fog = Scene::build(
@@ -161,7 +157,7 @@ fn lucent(args: &[&str], out: &Path) -> (bool, String) {
 
 #[test]
 fn aovs_on_the_command_line_are_written_beside_an_unchanged_image() {
-    let dir = temp_dir("cli-aovs");
+    let dir = common::scratch("denoise-cli-aovs");
     let args = ["render", "--spp", "4", "--width", "32", "--height", "24"];
     let (ok, log) = lucent(&[&args[..], &["--aovs"]].concat(), &dir.join("a.exr"));
     assert!(ok, "{log}");
@@ -175,7 +171,7 @@ fn aovs_on_the_command_line_are_written_beside_an_unchanged_image() {
 #[cfg(not(feature = "denoise"))]
 #[test]
 fn without_the_feature_denoise_fails_in_one_line_before_rendering() {
-    let dir = temp_dir("not-built");
+    let dir = common::scratch("denoise-not-built");
     let out = dir.join("x.png");
     let (ok, log) = lucent(&["render", "--denoise"], &out);
     assert!(!ok && log.trim().lines().count() == 1 && log.contains("--features denoise"), "{log}");
@@ -247,7 +243,7 @@ mod oidn {
 
     #[test]
     fn the_command_line_writes_the_denoised_image_and_keeps_the_noisy_one() {
-        let dir = temp_dir("cli-denoise");
+        let dir = common::scratch("denoise-cli-denoise");
         let args = ["render", "--spp", "4", "--width", "32", "--height", "24"];
         let (ok, log) = lucent(&[&args[..], &["--denoise"]].concat(), &dir.join("d.exr"));
         assert!(ok && log.contains("denoised in"), "{log}");

@@ -13,11 +13,6 @@ fn lucent(args: &[&str]) -> (bool, String) {
     (out.status.success(), String::from_utf8_lossy(&out.stderr).into_owned())
 }
 
-/// A scratch folder of this test's own (tests run in parallel).
-fn dir(test: &str) -> common::Scratch {
-    common::scratch(&format!("pieces-{test}"))
-}
-
 fn render(out: &Path, extra: &[&str]) {
     let mut args = vec!["render", "--width", "24", "--height", "18", "--out", out.to_str().unwrap()];
     args.extend_from_slice(extra);
@@ -34,7 +29,7 @@ fn refused(args: &[&str], needle: &str) {
 
 #[test]
 fn pieces_by_sample_range_merge_to_the_single_process_image_bit_for_bit() {
-    let d = dir("ranges");
+    let d = common::scratch("pieces-ranges");
     let p = |name: &str| d.join(name).to_str().unwrap().to_owned();
     render(&d.join("whole.exr"), &["--spp", "13"]);
     for (range, name) in [("0..4", "a.part"), ("4..9", "b.part"), ("9..13", "c.part")] {
@@ -85,7 +80,7 @@ fn exr(path: &Path) -> image::Rgb32FImage {
 
 #[test]
 fn pieces_by_window_and_sample_range_merge_to_the_single_process_image_bit_for_bit() {
-    let d = dir("windows");
+    let d = common::scratch("pieces-windows");
     std::fs::create_dir_all(d.join("pieces")).unwrap();
     let p = |name: &str| d.join(name).to_str().unwrap().to_owned();
     render(&d.join("whole.exr"), &["--spp", "6"]);
@@ -130,7 +125,7 @@ fn pieces_by_window_and_sample_range_merge_to_the_single_process_image_bit_for_b
 
 #[test]
 fn farm_job_scripts_name_every_piece_once_and_bad_requests_are_refused() {
-    let d = dir("farm");
+    let d = common::scratch("pieces-farm");
     let (folder, out) = (d.to_str().unwrap().to_owned(), d.join("frame.exr").to_str().unwrap().to_owned());
     let farm = |extra: &[&str]| -> Vec<String> {
         let base = ["farm", "slurm", "--dir", &folder, "--out", &out, "--width", "24", "--height", "18", "--spp", "10"];

@@ -21,10 +21,6 @@ use serde_json::{Value, json};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-fn temp_dir(name: &str) -> common::Scratch {
-    common::scratch(&format!("save-{name}"))
-}
-
 /// The Cornell box with KHR_lights_punctual lights of every kind: a point and a spot light
 /// under a rotated, non-uniformly scaled parent (one node with TRS, one with a matrix), a
 /// directional light, the point light's entry placed again by a second node, the spot's by
@@ -176,7 +172,7 @@ fn extent(desc: &SceneDesc) -> f32 {
 
 #[test]
 fn an_unedited_save_loads_to_the_same_scene_and_keeps_every_byte_of_data() {
-    let dir = temp_dir("unedited");
+    let dir = common::scratch("save-unedited");
     for (name, source, ext) in sources(&dir) {
         let original = load(source.as_deref());
         let out = dir.join(format!("{name}.saved.{ext}"));
@@ -251,7 +247,7 @@ fn json_of(path: Option<&Path>) -> Value {
 
 #[test]
 fn every_edited_parameter_and_light_loads_back_as_edited_and_everything_else_is_kept() {
-    let dir = temp_dir("edited");
+    let dir = common::scratch("save-edited");
     for (name, source, ext) in sources(&dir) {
         let original = load(source.as_deref());
         let (mut materials, mut lights) = (original.materials.clone(), original.lights.clone());
@@ -359,7 +355,7 @@ fn validate(files: &[PathBuf]) -> Option<Vec<(usize, String)>> {
 
 #[test]
 fn the_khronos_validator_finds_no_error_in_saved_files() {
-    let dir = temp_dir("validate");
+    let dir = common::scratch("save-validate");
     let mut files = Vec::new();
     for (name, source, ext) in sources(&dir) {
         let original = load(source.as_deref());
@@ -384,7 +380,7 @@ fn the_khronos_validator_finds_no_error_in_saved_files() {
 
 #[test]
 fn bad_output_paths_fail_in_one_line_and_leave_nothing() {
-    let dir = temp_dir("hostile");
+    let dir = common::scratch("save-hostile");
     let desc = builtin::cornell_box();
     let mut materials = desc.materials.clone();
     materials[0].roughness = 0.25;
@@ -414,7 +410,7 @@ fn bad_output_paths_fail_in_one_line_and_leave_nothing() {
 
 #[test]
 fn render_applies_a_view_files_edits_as_the_saved_gltf_holds_them() {
-    let dir = temp_dir("view");
+    let dir = common::scratch("save-view");
     let lucent = |args: &[&str]| {
         let run = Command::new(env!("CARGO_BIN_EXE_lucent")).args(args).output().unwrap();
         (run.status.success(), String::from_utf8_lossy(&run.stderr).into_owned())
@@ -456,7 +452,7 @@ fn render_applies_a_view_files_edits_as_the_saved_gltf_holds_them() {
 
 #[test]
 fn the_viewer_state_saves_and_reloads_its_edits_through_view_files_and_gltf() {
-    let dir = temp_dir("viewer");
+    let dir = common::scratch("save-viewer");
     let source = lights_scene(&dir);
     let scene = lucent::open(Some(&source), &Default::default(), &mut |_| {}).unwrap();
     let settings = Settings { width: 16, height: 16, ..Settings::default() };

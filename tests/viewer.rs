@@ -29,16 +29,12 @@ fn wait_for_load(state: &mut ViewerState) {
     }
 }
 
-fn temp_dir(name: &str) -> common::Scratch {
-    common::scratch(&format!("viewer-{name}"))
-}
-
 #[test]
 fn a_malformed_dropped_file_reports_its_error_and_the_old_scene_keeps_rendering() {
     let mut state = viewer();
     let first = state.wait_for_update(None, Duration::from_secs(30)).expect("renders");
     let generation = state.generation();
-    let dir = temp_dir("bad");
+    let dir = common::scratch("viewer-bad");
     let bad = dir.join("broken.glb");
     std::fs::write(&bad, b"glTF\x02\x00\x00\x00not really").unwrap();
     state.open(bad.clone());
@@ -161,7 +157,7 @@ fn after_a_camera_move_the_preview_sharpens_one_level_per_image() {
 #[test]
 fn screenshots_go_beside_the_scene_or_to_the_pictures_folder() {
     use lucent::viewer::state::default_screenshot_dir;
-    let dir = temp_dir("shots");
+    let dir = common::scratch("viewer-shots");
     assert_eq!(default_screenshot_dir(Some(&dir.join("scene.gltf"))), *dir, "a writable scene folder");
     let elsewhere = default_screenshot_dir(Some(&dir.join("missing/scene.gltf")));
     assert!(elsewhere.ends_with("Lucent") || elsewhere == Path::new("."), "{}", elsewhere.display());
@@ -176,7 +172,7 @@ fn screenshots_go_beside_the_scene_or_to_the_pictures_folder() {
 #[test]
 fn views_save_and_load() {
     let mut state = viewer();
-    let dir = temp_dir("view");
+    let dir = common::scratch("viewer-view");
     state.view_path = dir.join("v.toml").to_string_lossy().into_owned();
     state.camera.dolly(2.0);
     state.settings.max_depth = 11;
@@ -201,7 +197,7 @@ fn the_environment_picker_offers_the_built_in_map_the_start_map_and_a_folders_ma
     let mut state = viewer();
     assert_eq!(state.environment_maps.first().map(PathBuf::as_path), Some(Path::new(BUILT_IN)));
     assert_eq!(state.environment_dir(), ".");
-    let dir = temp_dir("maps");
+    let dir = common::scratch("viewer-maps");
     for file in ["b.exr", "a.hdr", "C.EXR", "notes.txt", "sky.png"] {
         std::fs::write(dir.join(file), b"").unwrap();
     }
@@ -209,7 +205,7 @@ fn the_environment_picker_offers_the_built_in_map_the_start_map_and_a_folders_ma
     let files = [dir.join("C.EXR"), dir.join("a.hdr"), dir.join("b.exr")];
     assert_eq!(state.environment_maps, [vec![PathBuf::from(BUILT_IN)], files.to_vec()].concat(), "rescanned");
     // Started with a map: it is offered, once, and its folder is the one scanned.
-    let start = temp_dir("start");
+    let start = common::scratch("viewer-start");
     let sky = start.join("sky.exr");
     write_map(&sky);
     let settings = EnvSettings { map: Some(sky.clone()), ..EnvSettings::default() };
@@ -313,7 +309,7 @@ fn under_xvfb(name: &str) -> Option<(PathBuf, common::Scratch, PathBuf)> {
         eprintln!("skipping the {name} viewer test: xvfb-run is not installed");
         return None;
     };
-    let dir = temp_dir(name);
+    let dir = common::scratch(&format!("viewer-{name}"));
     let runtime = dir.join("xdg");
     std::fs::create_dir_all(&runtime).unwrap();
     #[cfg(unix)]

@@ -38,10 +38,6 @@ fn image_with(state: &ViewerState, spp: u32) -> std::sync::Arc<Snapshot> {
     }
 }
 
-fn temp_dir(name: &str) -> common::Scratch {
-    common::scratch(&format!("tools-{name}"))
-}
-
 /// A `width` x `height` snapshot whose pixel i has mean (i, 2i, 3i) / 100 and variance i / 1e4.
 fn snapshot(width: u32, height: u32, spp: u32) -> Snapshot {
     let n = (width * height) as usize;
@@ -174,7 +170,7 @@ fn pin(width: u32, height: u32) -> Pin {
 
 #[test]
 fn a_pin_round_trips_through_its_cache_file_with_its_metadata() {
-    let dir = temp_dir("store");
+    let dir = common::scratch("tools-store");
     let store = PinStore { dir: dir.join("pins") };
     assert!(store.load(None).unwrap().is_none(), "nothing pinned yet");
     let original = pin(5, 3);
@@ -203,7 +199,7 @@ fn a_pin_round_trips_through_its_cache_file_with_its_metadata() {
 
 #[test]
 fn the_pin_survives_a_restart_of_accumulation_and_of_the_viewer() {
-    let dir = temp_dir("restart");
+    let dir = common::scratch("tools-restart");
     let store = PinStore { dir: dir.to_path_buf() };
     let mut state = viewer();
     state.compare.store = Some(store.clone());
@@ -242,7 +238,7 @@ fn the_pin_survives_a_restart_of_accumulation_and_of_the_viewer() {
 fn a_pin_of_another_size_is_not_compared_and_says_why() {
     let mut state = viewer();
     let snap = state.wait_for_update(None, Duration::from_secs(30)).unwrap();
-    let dir = temp_dir("size");
+    let dir = common::scratch("tools-size");
     let file = dir.join("other.exr");
     pin(7, 5).write(&file).unwrap();
     state.compare_with(&file).unwrap();
