@@ -461,10 +461,16 @@ impl Scene {
     #[inline]
     pub fn light_position(&self, tri: u32, b: [f32; 3]) -> (Vec3, Vec3, Vec3, u32) {
         self.geometry.with_triangle(tri, |p, a, _| {
-            let point = p[0] * b[0] + p[1] * b[1] + p[2] * b[2];
-            let error = interpolation_error(b, *p) + self.geometry.placement_error(tri, b, point);
+            let (point, error) = self.position_on(tri, b, p);
             (point, error, a.ng, a.material)
         })
+    }
+
+    /// The point of triangle `tri` (vertices `p`) at barycentrics `b`, and its error bound.
+    #[inline(always)]
+    fn position_on(&self, tri: u32, b: [f32; 3], p: &[Vec3; 3]) -> (Vec3, Vec3) {
+        let point = p[0] * b[0] + p[1] * b[1] + p[2] * b[2];
+        (point, interpolation_error(b, *p) + self.geometry.placement_error(tri, b, point))
     }
 
     /// `light_point` given the triangle's positions and attributes.
@@ -472,10 +478,10 @@ impl Scene {
     fn point_on(&self, tri: u32, b: [f32; 3], p: &[Vec3; 3], a: &TriAttrs, extra: Option<&TriExtra>) -> Surface {
         let uv0 = a.uvs[0] * b[0] + a.uvs[1] * b[1] + a.uvs[2] * b[2];
         let uv1 = extra.map_or(uv0, |e| e.uv1[0] * b[0] + e.uv1[1] * b[1] + e.uv1[2] * b[2]);
-        let point = p[0] * b[0] + p[1] * b[1] + p[2] * b[2];
+        let (point, p_error) = self.position_on(tri, b, p);
         Surface {
             p: point,
-            p_error: interpolation_error(b, *p) + self.geometry.placement_error(tri, b, point),
+            p_error,
             ng: a.ng,
             ns: a.ng,
             uv: [uv0, uv1],
