@@ -17,7 +17,8 @@ use glam::Vec3;
 fn shading_frame(surface: &Surface, front: bool, wo: Vec3) -> Frame {
     let ng = if front { surface.ng } else { -surface.ng };
     let ns = if front { surface.ns } else { -surface.ns };
-    Frame::from_normal(bend_normal(ng, wo, if ns.dot(ng) > 0.0 { ns } else { ng }))
+    // The facet's own normal reflects nothing below the surface: nothing to bend.
+    Frame::from_normal(if ns == ng { ns } else { bend_normal(ng, wo, if ns.dot(ng) > 0.0 { ns } else { ng }) })
 }
 
 /// A scattering event on a surface.

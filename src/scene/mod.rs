@@ -414,9 +414,12 @@ impl Scene {
         let lerp = |v: [Vec4; 3]| v[0] * b[0] + v[1] * b[1] + v[2] * b[2];
         self.geometry.with_triangle(hit.tri, |p, a, extra| {
             let mut surface = self.point_on(hit.tri, b, p, a, extra);
-            let ns = (a.normals[0] * b[0] + a.normals[1] * b[1] + a.normals[2] * b[2]).normalize_or_zero();
-            if ns != Vec3::ZERO {
-                surface.ns = ns;
+            // Flat triangles (every vertex normal is the facet's) keep the facet's normal.
+            if a.normals != [a.ng; 3] {
+                let ns = (a.normals[0] * b[0] + a.normals[1] * b[1] + a.normals[2] * b[2]).normalize_or_zero();
+                if ns != Vec3::ZERO {
+                    surface.ns = ns;
+                }
             }
             if let Some(e) = extra {
                 surface.color = lerp(e.colors);
@@ -808,6 +811,48 @@ mod tests {
         };
         let scene = Scene::build(desc);
         assert!(scene.warnings.iter().any(|w| w.contains("\"ink\" fills mesh \"lid\"")), "{:?}", scene.warnings);
+    }
+
+    #[test]
+    fn flat_triangles_shade_with_their_facet_normal_exactly() {
+        // A tilted triangle without normals (flat), and one whose vertex normals fan out.
+        let p = vec![Vec3::new(0.1, 0.2, 0.3), Vec3::new(1.7, 0.4, -0.2), Vec3::new(0.3, 1.9, 0.8)];
+        let flat =
+            MeshDesc { name: "flat".into(), positions: p.clone(), indices: vec![0, 1, 2], ..MeshDesc::default() };
+        let fan = [Vec3::new(0.3, 0.1, 1.0), Vec3::new(-0.2, 0.3, 1.0), Vec3::new(0.1, -0.3, 1.0)];
+        let smooth = MeshDesc {
+            name: "smooth".into(),
+            positions: p.iter().map(|v| *v + Vec3::Z * 5.0).collect(),
+            normals: Some(fan.to_vec()),
+            indices: vec![0, 1, 2],
+            ..MeshDesc::default()
+        };
+        let desc = SceneDesc {
+            meshes: vec![flat, smooth],
+            materials: vec![Material::lambert("grey", Vec3::splat(0.5))],
+            ..SceneDesc::default()
+        };
+        let scene = Scene::build(desc);
+        let is_flat = |t: u32| scene.geometry.positions(t)[0].z < 1.0;
+        let (mut rng, mut smooth_seen) = (rand_pcg::Pcg32::new(5, 3), 0);
+        for _ in 0..2000 {
+            use rand_core::RngCore;
+            let mut u = || (rng.next_u32() >> 8) as f32 / (1u32 << 24) as f32;
+            let (b1, b2) = (u(), u());
+            let b = if b1 + b2 > 1.0 { [b1 + b2 - 1.0, 1.0 - b1, 1.0 - b2] } else { [1.0 - b1 - b2, b1, b2] };
+            for tri in 0..2 {
+                let surface = scene.surface(&Hit { tri, t: 1.0, b });
+                if is_flat(tri) {
+                    assert_eq!(surface.ns, surface.ng, "a flat triangle at {b:?}");
+                } else {
+                    let n = fan.map(|n| n.normalize());
+                    let want = (n[0] * b[0] + n[1] * b[1] + n[2] * b[2]).normalize();
+                    assert!((surface.ns - want).length() < 1e-5 && surface.ns != surface.ng);
+                    smooth_seen += 1;
+                }
+            }
+        }
+        assert_eq!(smooth_seen, 2000);
     }
 
     #[test]
