@@ -169,26 +169,58 @@ pub fn sample_direct(
     sampler: &mut Sampler,
     wl: &Wavelengths,
 ) -> DirectLight {
+    match sample_light(scene, settings, vertex, sampler) {
+        Some(light) => light.trace(scene, settings, sampler, wl),
+        None => DirectLight::NONE,
+    }
+}
+
+/// `sample_direct` up to its shadow ray: the light sample (two draws, always made) and the
+/// BSDF's value and density for it; None where it carries nothing. The path tracer draws
+/// and computes its next direction before it traces the shadow ray, so that the processor
+/// works on both at once.
+pub fn sample_light(
+    scene: &Scene,
+    settings: &Settings,
+    vertex: &Vertex,
+    sampler: &mut Sampler,
+) -> Option<PendingLight> {
     let u_select = sampler.next_2d();
     let u = sampler.next_2d();
     if !vertex.bsdf.flags().has_non_specular() {
-        return DirectLight::NONE;
+        return None;
     }
-    let Some(light) = scene.sample_li(vertex.surface.p, u_select, u) else { return DirectLight::NONE };
+    let light = scene.sample_li(vertex.surface.p, u_select, u)?;
     let sampling = Sampling::new(settings.importance_sampling);
     let (f, bsdf_pdf) = sampling.eval_pdf(&vertex.bsdf, vertex.wo, vertex.frame.to_local(light.wi));
     if f.is_black() {
-        return DirectLight::NONE;
+        return None;
     }
-    let Some((_, origin, crosses)) = vertex.leave(vertex.frame.to_local(light.wi)) else {
-        return DirectLight::NONE;
-    };
-    let media = vertex.media_after(scene, crosses);
-    let tr = shadow(scene, settings, (origin, light.wi, light.target), media, sampler, wl);
-    if tr.is_black() {
-        return DirectLight { radiance: Spectrum::ZERO, shadow_ray: true };
+    let (_, origin, crosses) = vertex.leave(vertex.frame.to_local(light.wi))?;
+    Some(PendingLight { light, f, bsdf_pdf, origin, media: vertex.media_after(scene, crosses) })
+}
+
+/// A light sample at a surface whose shadow ray is still to be traced.
+pub struct PendingLight {
+    light: LightSample,
+    /// The BSDF's value (times the cosine) and density for the light's direction.
+    f: Spectrum,
+    bsdf_pdf: f32,
+    /// Where the shadow ray leaves from, and the volumes it starts in.
+    origin: Vec3,
+    media: Media,
+}
+
+impl PendingLight {
+    /// Traces the shadow ray and weights the sample.
+    pub fn trace(self, scene: &Scene, settings: &Settings, sampler: &mut Sampler, wl: &Wavelengths) -> DirectLight {
+        let Self { light, f, bsdf_pdf, origin, media } = self;
+        let tr = shadow(scene, settings, (origin, light.wi, light.target), media, sampler, wl);
+        if tr.is_black() {
+            return DirectLight { radiance: Spectrum::ZERO, shadow_ray: true };
+        }
+        DirectLight { radiance: weighted(settings, &light, (f, bsdf_pdf), tr, wl), shadow_ray: true }
     }
-    DirectLight { radiance: weighted(settings, &light, (f, bsdf_pdf), tr, wl), shadow_ray: true }
 }
 
 /// Direct light at a point `p` where a medium of phase function `phase` scatters light

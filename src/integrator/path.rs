@@ -17,7 +17,7 @@
 //! first non-specular vertex (`aov`).
 
 use super::aov::AovTrace;
-use super::direct::{sample_direct, sample_medium};
+use super::direct::{sample_light, sample_medium};
 use super::emission::{emitted, escaped};
 use super::kernel::PathOutput;
 use super::media::{Media, transmittance};
@@ -155,19 +155,23 @@ pub fn radiance<const MEDIA: bool>(
             continue;
         }
 
-        // Light sampling: one shadow ray towards a light chosen by power.
-        if sample_lights {
-            let direct = sample_direct(scene, settings, &vertex, sampler, wl);
+        // Light sampling: one shadow ray towards a light chosen by power, traced after the
+        // BSDF's direction is drawn and computed, so that the two overlap (the numbers are
+        // drawn in the same order either way, unless the shadow ray's volumes draw too).
+        let light = if sample_lights { sample_light(scene, settings, &vertex, sampler) } else { None };
+
+        // BSDF sampling: the direction of the next segment.
+        let u_lobe = sampler.next_1d();
+        let u = sampler.next_2d();
+        let sampled = sampling.sample(&vertex.bsdf, vertex.wo, u_lobe, u);
+        if let Some(light) = light {
+            let direct = light.trace(scene, settings, sampler, wl);
             check(NanCause::LightSample, direct.radiance);
             out.radiance += throughput * direct.radiance;
             out.rays += direct.shadow_ray as u32;
             out.shadow_rays += direct.shadow_ray as u32;
         }
-
-        // BSDF sampling: the direction of the next segment.
-        let u_lobe = sampler.next_1d();
-        let u = sampler.next_2d();
-        let Some(bs) = sampling.sample(&vertex.bsdf, vertex.wo, u_lobe, u) else { break };
+        let Some(bs) = sampled else { break };
         check(NanCause::BsdfSample, bs.weight);
         let Some((d, origin, crosses)) = vertex.leave(bs.wi) else { break };
         throughput *= wl.reflectance(bs.weight);
