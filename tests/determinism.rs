@@ -72,3 +72,31 @@ fn shadow_rays_stop_at_refracting_glass_with_the_bits_of_testing_what_they_cross
         assert!(a.mean == b.mean, "{light_sampling:?}: occlusion queries and walks differ");
     }
 }
+
+#[test]
+fn a_pixels_samples_taken_together_are_the_bits_of_each_taken_alone() {
+    use glam::UVec2;
+    use lucent::integrator::{View, sample_pixel, sample_pixels};
+    let scene = Scene::build(builtin::cornell_box());
+    let camera = scene.default_camera(1.0);
+    // Replicates split the indices among sequences; indices past 2^16 start new ones.
+    for (sampler, replicates) in [(SamplerKind::Sobol, 1), (SamplerKind::Sobol, 2), (SamplerKind::Independent, 1)] {
+        let settings = Settings { width: 16, height: 16, sampler, ..settings(9) };
+        let settings = if replicates > 1 { Settings { noise_threshold: Some(0.05), ..settings } } else { settings };
+        assert_eq!(settings.replicates(), replicates);
+        let view = View::new(&scene, &camera, 16, 16);
+        for (pixel, start) in [(UVec2::new(7, 4), 0), (UVec2::new(3, 12), 65_530)] {
+            let mut together = Vec::new();
+            sample_pixels(&scene, &settings, &view, pixel, start..start + 12, false, |i, out| together.push((i, out)));
+            assert_eq!(together.len(), 12);
+            for (i, out) in together {
+                let alone = sample_pixel(&scene, &settings, &view, pixel, i, false);
+                assert_eq!(
+                    out.radiance.to_rgb().to_array().map(f32::to_bits),
+                    alone.radiance.to_rgb().to_array().map(f32::to_bits)
+                );
+                assert_eq!(out.rays, alone.rays, "{sampler:?} x{replicates}, sample {i} of {pixel}");
+            }
+        }
+    }
+}

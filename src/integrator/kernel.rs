@@ -18,13 +18,14 @@ use super::aov::Aov;
 use super::media::Media;
 use super::nan::{NanCause, check};
 use super::settings::{Integrator, PixelSampling, Settings};
-use crate::math::sampler::{Sampler, hash3};
+use crate::math::sampler::{PixelSequence, Sampler, hash3};
 use crate::scene::{
     Scene,
     camera::{Camera, RayGenerator},
 };
 use crate::spectrum::{Spectrum, Wavelengths, sampled::Sampled};
 use glam::{UVec2, Vec2};
+use std::ops::Range;
 
 /// The radiance one pixel sample carries, how many rays it traced, and the AOVs if asked.
 #[derive(Clone, Copy, Debug, Default)]
@@ -112,7 +113,40 @@ pub fn sample_pixel(
     index: u64,
     aovs: bool,
 ) -> PathOutput {
-    let mut sampler = Sampler::replicated(settings.sampler, settings.replicates(), pixel, index, settings.seed);
+    sample(scene, settings, view, (pixel, &sequence(settings, pixel)), index, aovs)
+}
+
+/// Samples `indices` of `pixel`, each handed to `add` with its index: the bits of
+/// `sample_pixel` for each, with what the pixel's samples share computed once.
+pub fn sample_pixels(
+    scene: &Scene,
+    settings: &Settings,
+    view: &View,
+    pixel: UVec2,
+    indices: Range<u64>,
+    aovs: bool,
+    mut add: impl FnMut(u64, PathOutput),
+) {
+    let sequence = sequence(settings, pixel);
+    indices.for_each(|i| add(i, sample(scene, settings, view, (pixel, &sequence), i, aovs)));
+}
+
+/// The numbers of `pixel`'s samples for `settings`.
+fn sequence(settings: &Settings, pixel: UVec2) -> PixelSequence {
+    PixelSequence::new(settings.sampler, settings.replicates(), pixel, settings.seed)
+}
+
+/// `sample_pixel` with the pixel's sequence.
+#[inline]
+fn sample(
+    scene: &Scene,
+    settings: &Settings,
+    view: &View,
+    (pixel, sequence): (UVec2, &PixelSequence),
+    index: u64,
+    aovs: bool,
+) -> PathOutput {
+    let mut sampler = sequence.sampler(index);
     let film = pixel.as_vec2() + pixel_offset(settings, pixel, index, &mut sampler);
     let ray = view.rays.ray(film);
     check(NanCause::CameraRay, Spectrum::from_rgb(ray.o + ray.d));

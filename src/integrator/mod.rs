@@ -19,6 +19,6 @@ mod vertex;
 
 pub use aov::Aov;
 pub use drt::grid_shape;
-pub use kernel::{PathOutput, View, is_spectral, sample_pixel, simulated_effects};
+pub use kernel::{PathOutput, View, is_spectral, sample_pixel, sample_pixels, simulated_effects};
 pub use scatter::Sampling;
 pub use settings::{Directions, Integrator, LightSampling, PixelSampling, SamplerKind, Settings, Spectral};

@@ -52,7 +52,11 @@ enum Inner {
 impl Sampler {
     /// Starts the independent stream of sample `index` of `pixel` for `seed`.
     pub fn new(pixel: UVec2, index: u64, seed: u64) -> Self {
-        let stream = hash3(pixel.x as u64, pixel.y as u64, seed);
+        Self::independent(hash3(pixel.x as u64, pixel.y as u64, seed), index)
+    }
+
+    /// Sample `index` of the independent stream `stream` (a pixel's hashed seed).
+    fn independent(stream: u64, index: u64) -> Self {
         let mut rng = Pcg32::new(mix64(stream ^ 0x9e37_79b9_7f4a_7c15), stream);
         rng.advance(index.wrapping_mul(DIMENSIONS_PER_SAMPLE));
         Self { inner: Inner::Independent(rng) }
@@ -70,17 +74,7 @@ impl Sampler {
     /// (randomised QMC, Owen 1997; L'Ecuyer and Lemieux 2002). One replicate is the single
     /// sequence of `of_kind`. Independent samples are independent already: R changes nothing.
     pub fn replicated(kind: SamplerKind, replicates: u32, pixel: UVec2, index: u64, seed: u64) -> Self {
-        match kind {
-            SamplerKind::Independent => Self::new(pixel, index, seed),
-            SamplerKind::Sobol => {
-                let r = replicates.max(1) as u64;
-                let (replicate, point) = (index % r, index / r);
-                let pixel_seed = hash3(pixel.x as u64, pixel.y as u64, seed);
-                let scramble = hash3(pixel_seed, point / SOBOL_LENGTH, 0x50b0 ^ replicate << 16);
-                let index_rev = ((point % SOBOL_LENGTH) as u32).reverse_bits();
-                Self { inner: Inner::Sobol { index_rev, scramble, dimension: 0 } }
-            }
-        }
+        PixelSequence::new(kind, replicates, pixel, seed).sampler(index)
     }
 
     /// Next uniform number in [0, 1), with 24 bits of precision (exactly representable).
@@ -111,6 +105,50 @@ impl Sampler {
             }
         }
     }
+}
+
+/// What the samples of one pixel share for a seed, computed once for all of them: the
+/// pixel's hashed seed and the scramble of its first Sobol sequence, which
+/// `Sampler::replicated` would hash again for every sample (six 64-bit mixes).
+#[derive(Clone, Copy, Debug)]
+pub struct PixelSequence {
+    kind: SamplerKind,
+    replicates: u64,
+    pixel_seed: u64,
+    /// `scramble(pixel_seed, 0, 0)`: replicate 0's first `SOBOL_LENGTH` points.
+    first: u64,
+}
+
+impl PixelSequence {
+    /// The samples of `pixel` for `seed` from the sequence of `kind`, split among
+    /// `replicates` randomisations as `Sampler::replicated` describes.
+    pub fn new(kind: SamplerKind, replicates: u32, pixel: UVec2, seed: u64) -> Self {
+        let pixel_seed = hash3(pixel.x as u64, pixel.y as u64, seed);
+        Self { kind, replicates: replicates.max(1) as u64, pixel_seed, first: scramble(pixel_seed, 0, 0) }
+    }
+
+    /// Starts sample `index`: the same numbers as `Sampler::replicated` gives.
+    #[inline]
+    pub fn sampler(&self, index: u64) -> Sampler {
+        match self.kind {
+            SamplerKind::Independent => Sampler::independent(self.pixel_seed, index),
+            SamplerKind::Sobol => {
+                let r = self.replicates;
+                let (replicate, point) = if r == 1 { (0, index) } else { (index % r, index / r) };
+                let block = point / SOBOL_LENGTH;
+                let scramble =
+                    if (replicate, block) == (0, 0) { self.first } else { scramble(self.pixel_seed, block, replicate) };
+                let index_rev = ((point % SOBOL_LENGTH) as u32).reverse_bits();
+                Sampler { inner: Inner::Sobol { index_rev, scramble, dimension: 0 } }
+            }
+        }
+    }
+}
+
+/// The scramble of the Sobol sequence of a pixel (its hashed seed) for its `block`-th run
+/// of `SOBOL_LENGTH` points of `replicate`.
+fn scramble(pixel_seed: u64, block: u64, replicate: u64) -> u64 {
+    hash3(pixel_seed, block, 0x50b0 ^ replicate << 16)
 }
 
 /// Sobol dimensions 0 and 1 (low and high half) of the 16 leading bits of a bit-reversed
@@ -274,6 +312,21 @@ mod tests {
         }
         let independent = |r: u32| Sampler::replicated(SamplerKind::Independent, r, p, 6, 7).next_2d();
         assert_eq!(independent(2), independent(1), "independent samples need no replicates");
+    }
+
+    #[test]
+    fn a_pixels_sequences_are_keyed_by_pixel_seed_block_and_replicate() {
+        let p = UVec2::new(4, 11);
+        for (replicates, index) in [(1, 3), (1, 70_000), (2, 0), (2, 7), (2, 131_075)] {
+            let Inner::Sobol { index_rev, scramble, .. } =
+                PixelSequence::new(SamplerKind::Sobol, replicates, p, 7).sampler(index).inner
+            else {
+                panic!("a Sobol sampler")
+            };
+            let (replicate, point) = (index % replicates as u64, index / replicates as u64);
+            let key = hash3(hash3(4, 11, 7), point / SOBOL_LENGTH, 0x50b0 ^ replicate << 16);
+            assert_eq!((scramble, index_rev), (key, ((point % SOBOL_LENGTH) as u32).reverse_bits()), "{index}");
+        }
     }
 
     #[test]

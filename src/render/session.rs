@@ -8,7 +8,7 @@
 
 use crate::film::adaptive::{self, ErrorEstimate, LUMINANCE, LUMINANCE_FLOOR};
 use crate::film::{AovImages, Film, TILE_SIZE, Tile, window::Window};
-use crate::integrator::{Integrator, Settings, View, sample_pixel, settings::InvalidSettings};
+use crate::integrator::{Integrator, Settings, View, sample_pixels, settings::InvalidSettings};
 use crate::memory::{Limits, format_bytes};
 use crate::scene::{Scene, camera::Camera};
 use glam::{UVec2, Vec3};
@@ -573,8 +573,7 @@ impl Pass<'_> {
                         continue;
                     }
                     let pixel = tile.origin + local;
-                    for index in start..stop {
-                        let out = sample_pixel(self.scene, self.settings, self.view, pixel, index, self.aovs);
+                    sample_pixels(self.scene, self.settings, self.view, pixel, start..stop, self.aovs, |index, out| {
                         tile.add(local, out.radiance);
                         if let Some(aov) = out.aov {
                             tile.add_aov(local, aov.albedo, aov.normal);
@@ -583,7 +582,7 @@ impl Pass<'_> {
                             tile.add_error(local, index, out.radiance);
                         }
                         traced += out.rays as u64;
-                    }
+                    });
                     samples += stop - start;
                 }
             }
