@@ -108,8 +108,8 @@ impl Sampler {
 }
 
 /// What the samples of one pixel share for a seed, computed once for all of them: the
-/// pixel's hashed seed and the scramble of its first Sobol sequence, which
-/// `Sampler::replicated` would hash again for every sample (six 64-bit mixes).
+/// pixel's hashed seed and the scramble of its first Sobol sequence (six 64-bit mixes that
+/// starting each sample on its own, `Sampler::replicated`, computes again every time).
 #[derive(Clone, Copy, Debug)]
 pub struct PixelSequence {
     kind: SamplerKind,
