@@ -26,6 +26,15 @@ pub struct TriAttrs {
     pub material: u32,
 }
 
+impl TriAttrs {
+    /// Every vertex normal is the facet's (none given, or snapped to it when loading): the
+    /// triangle shades flat, with nothing to interpolate and no terminator to lift.
+    #[inline]
+    pub fn is_flat(&self) -> bool {
+        self.normals == [self.ng; 3]
+    }
+}
+
 /// Attributes only some scenes have, stored per triangle beside `TriAttrs` when any mesh
 /// has one of them.
 #[derive(Clone, Copy, Debug)]

@@ -414,8 +414,8 @@ impl Scene {
         let lerp = |v: [Vec4; 3]| v[0] * b[0] + v[1] * b[1] + v[2] * b[2];
         self.geometry.with_triangle(hit.tri, |p, a, extra| {
             let mut surface = self.point_on(hit.tri, b, p, a, extra);
-            // Flat triangles (every vertex normal is the facet's) keep the facet's normal.
-            if a.normals != [a.ng; 3] {
+            // Flat triangles keep the facet's normal.
+            if !a.is_flat() {
                 let ns = (a.normals[0] * b[0] + a.normals[1] * b[1] + a.normals[2] * b[2]).normalize_or_zero();
                 if ns != Vec3::ZERO {
                     surface.ns = ns;
@@ -546,9 +546,9 @@ impl Scene {
     pub fn reflection_origin(&self, surface: &Surface, front: bool, terminator: bool, offset: bool) -> Vec3 {
         let ng = if front { surface.ng } else { -surface.ng };
         let (mut p, mut error) = (surface.p, surface.p_error);
-        // Flat triangles (every vertex normal is the facet's) have nothing to lift.
+        // Flat triangles have nothing to lift.
         let lift = |positions: &[Vec3; 3], attrs: &TriAttrs| {
-            (attrs.normals != [attrs.ng; 3]).then(|| {
+            (!attrs.is_flat()).then(|| {
                 let normals = if front { attrs.normals } else { attrs.normals.map(|n| -n) };
                 terminator_offset(p, surface.b, positions, &normals)
             })
