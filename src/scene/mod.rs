@@ -612,7 +612,7 @@ fn add_triangles(
         };
         bounds = p.iter().fold(bounds, |(lo, hi), &v| (lo.min(v), hi.max(v)));
         out.positions.push(p);
-        out.attrs.push(TriAttrs { normals, uvs, ng, material });
+        out.attrs.push(TriAttrs::new(normals, uvs, ng, material));
         if extra {
             let per_vertex = |v: &Option<Vec<Vec4>>, default: Vec4| {
                 idx.map(|i| v.as_ref().and_then(|v| v.get(i)).copied().filter(|v| v.is_finite()).unwrap_or(default))
