@@ -105,13 +105,33 @@ fn cell(x: f32, n: usize) -> (usize, f32) {
 /// Albedo of the GGX lobe with Fresnel reflectance f0 (scalar) at cos theta_o = `mu`, for
 /// perceptual roughness `roughness` (alpha = roughness^2).
 pub fn ggx_albedo(mu: f32, roughness: f32, f0: f32) -> f32 {
-    let (i, fi) = cell(mu.max(0.0).sqrt(), N);
-    let (j, fj) = cell(roughness, NR);
-    let (r0, r1) = (row(j), row(j + 1));
-    let lerp = |x: &[f32; N]| x[i] + (x[i + 1] - x[i]) * fi;
-    let a = lerp(&r0.a) + (lerp(&r1.a) - lerp(&r0.a)) * fj;
-    let b = lerp(&r0.b) + (lerp(&r1.b) - lerp(&r0.b)) * fj;
-    (f0 * (a - b) + b).clamp(0.0, 1.0)
+    GgxAlbedo::new(mu, roughness).at(f0)
+}
+
+/// The two tabulated albedos at one cosine and roughness, A (f0 = 1) and B (f0 = 0), which
+/// `ggx_albedo` blends by f0: read once, they give the albedo for every f0.
+#[derive(Clone, Copy, Debug)]
+pub struct GgxAlbedo {
+    a: f32,
+    b: f32,
+}
+
+impl GgxAlbedo {
+    /// The tables at cos theta_o = `mu` for perceptual roughness `roughness`, interpolated.
+    pub fn new(mu: f32, roughness: f32) -> Self {
+        let (i, fi) = cell(mu.max(0.0).sqrt(), N);
+        let (j, fj) = cell(roughness, NR);
+        let (r0, r1) = (row(j), row(j + 1));
+        let lerp = |x: &[f32; N]| x[i] + (x[i + 1] - x[i]) * fi;
+        let a = lerp(&r0.a) + (lerp(&r1.a) - lerp(&r0.a)) * fj;
+        let b = lerp(&r0.b) + (lerp(&r1.b) - lerp(&r0.b)) * fj;
+        Self { a, b }
+    }
+
+    /// The albedo for Fresnel reflectance `f0`.
+    pub fn at(self, f0: f32) -> f32 {
+        (f0 * (self.a - self.b) + self.b).clamp(0.0, 1.0)
+    }
 }
 
 /// Cosine-weighted hemispherical average of `ggx_albedo` over mu: 2 int E(mu) mu dmu.
