@@ -106,6 +106,38 @@ impl Distribution1D {
         Self { func, cdf, integral, guide }
     }
 
+    /// The density's arrays, borrowed.
+    fn view(&self) -> Piecewise<'_> {
+        Piecewise { func: &self.func, cdf: &self.cdf, guide: &self.guide, integral: self.integral }
+    }
+
+    /// Mean of the function over [0, 1).
+    pub fn integral(&self) -> f32 {
+        self.integral
+    }
+
+    /// The point for uniform `u`, its density, and its piece.
+    pub fn sample(&self, u: f32) -> (f32, f32, usize) {
+        self.view().sample(u)
+    }
+
+    /// Density of piece `i`.
+    pub fn density(&self, i: usize) -> f32 {
+        self.view().density(i)
+    }
+}
+
+/// A piecewise-constant density's arrays (`Distribution1D`'s fields), borrowed from one
+/// density or from one row of a `Distribution2D`.
+#[derive(Clone, Copy)]
+struct Piecewise<'a> {
+    func: &'a [f32],
+    cdf: &'a [f32],
+    guide: &'a [u32],
+    integral: f32,
+}
+
+impl Piecewise<'_> {
     /// The piece holding `u`: the last i with cdf[i] <= u, as bisecting the whole CDF finds
     /// it, searched between guide entries one bucket either side of u's (which rounding in
     /// u * G cannot move it past).
@@ -117,13 +149,8 @@ impl Distribution1D {
         lo + self.cdf[lo..hi].partition_point(|&c| c <= u) - 1
     }
 
-    /// Mean of the function over [0, 1).
-    pub fn integral(&self) -> f32 {
-        self.integral
-    }
-
     /// The point for uniform `u`, its density, and its piece.
-    pub fn sample(&self, u: f32) -> (f32, f32, usize) {
+    fn sample(&self, u: f32) -> (f32, f32, usize) {
         let n = self.func.len();
         let i = self.piece(u).min(n - 1);
         let width = self.cdf[i + 1] - self.cdf[i];
@@ -133,16 +160,26 @@ impl Distribution1D {
     }
 
     /// Density of piece `i`.
-    pub fn density(&self, i: usize) -> f32 {
+    fn density(&self, i: usize) -> f32 {
         if self.integral > 0.0 { self.func[i] / self.integral } else { 1.0 }
     }
 }
 
 /// A piecewise-constant density on [0, 1)^2 over a `width` x `height` grid: a marginal
 /// density over rows and a conditional one within each row (pbrt's PiecewiseConstant2D).
+/// The rows' arrays are stored end to end, each row at a fixed stride: finding a row's
+/// numbers is arithmetic, not a load of its own arrays' addresses before theirs.
 #[derive(Clone, Debug)]
 pub struct Distribution2D {
-    rows: Vec<Distribution1D>,
+    width: usize,
+    /// Guide entries per row (the same for every row of one width).
+    guides: usize,
+    /// Per row, `Distribution1D`'s arrays: `width` values, `width + 1` CDF entries and
+    /// `guides` guide entries, and the row's integral.
+    func: Vec<f32>,
+    cdf: Vec<f32>,
+    guide: Vec<u32>,
+    integrals: Vec<f32>,
     marginal: Distribution1D,
 }
 
@@ -151,23 +188,41 @@ impl Distribution2D {
     pub fn new(func: &[f32], width: usize) -> Self {
         let rows: Vec<Distribution1D> = func.chunks_exact(width).map(|r| Distribution1D::new(r.to_vec())).collect();
         let marginal = Distribution1D::new(rows.iter().map(Distribution1D::integral).collect());
-        Self { rows, marginal }
+        Self {
+            width,
+            guides: rows.first().map_or(0, |r| r.guide.len()),
+            func: rows.iter().flat_map(|r| r.func.iter().copied()).collect(),
+            cdf: rows.iter().flat_map(|r| r.cdf.iter().copied()).collect(),
+            guide: rows.iter().flat_map(|r| r.guide.iter().copied()).collect(),
+            integrals: rows.iter().map(Distribution1D::integral).collect(),
+            marginal,
+        }
+    }
+
+    /// Row `r`'s conditional density.
+    fn row(&self, r: usize) -> Piecewise<'_> {
+        let (w, g) = (self.width, self.guides);
+        Piecewise {
+            func: &self.func[r * w..(r + 1) * w],
+            cdf: &self.cdf[r * (w + 1)..(r + 1) * (w + 1)],
+            guide: &self.guide[r * g..(r + 1) * g],
+            integral: self.integrals[r],
+        }
     }
 
     /// The point for uniform `u` and its density.
     pub fn sample(&self, u: Vec2) -> (Vec2, f32) {
         let (y, pdf_row, row) = self.marginal.sample(u.y);
-        let (x, pdf_x, _) = self.rows[row].sample(u.x);
+        let (x, pdf_x, _) = self.row(row).sample(u.x);
         (Vec2::new(x, y), pdf_row * pdf_x)
     }
 
     /// Density at `p`.
     pub fn pdf(&self, p: Vec2) -> f32 {
-        let h = self.rows.len();
+        let (w, h) = (self.width, self.integrals.len());
         let row = ((p.y * h as f32) as usize).min(h - 1);
-        let w = self.rows[row].func.len();
         let col = ((p.x * w as f32) as usize).min(w - 1);
-        self.marginal.density(row) * self.rows[row].density(col)
+        self.marginal.density(row) * self.row(row).density(col)
     }
 
     /// Mean of the function over the unit square.
@@ -204,7 +259,30 @@ mod tests {
             let probes =
                 d.cdf.clone().into_iter().chain([0.0, 1.0 - f32::EPSILON / 2.0]).chain((0..20_000).map(|_| next()));
             for u in probes.filter(|u| (0.0..1.0).contains(u)) {
-                assert_eq!(d.piece(u), d.cdf.partition_point(|&c| c <= u) - 1, "n {n}, u {u}");
+                assert_eq!(d.view().piece(u), d.cdf.partition_point(|&c| c <= u) - 1, "n {n}, u {u}");
+            }
+        }
+    }
+
+    #[test]
+    fn a_2d_densitys_rows_sample_as_their_own_1d_densities_do() {
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = || {
+            state = crate::math::sampler::mix64(state.wrapping_add(0x2545_f491_4f6c_dd1d));
+            (state >> 40) as f32 / (1u64 << 24) as f32
+        };
+        for (w, h) in [(2usize, 1usize), (3, 5), (16, 8), (33, 7)] {
+            let func: Vec<f32> = (0..w * h).map(|i| if i % 5 == 2 { 0.0 } else { next() }).collect();
+            let d2 = Distribution2D::new(&func, w);
+            let rows: Vec<Distribution1D> = func.chunks_exact(w).map(|r| Distribution1D::new(r.to_vec())).collect();
+            let marginal = Distribution1D::new(rows.iter().map(Distribution1D::integral).collect());
+            for _ in 0..2_000 {
+                let u = Vec2::new(next(), next());
+                let (y, pdf_y, row) = marginal.sample(u.y);
+                let (x, pdf_x, col) = rows[row].sample(u.x);
+                assert_eq!(d2.sample(u), (Vec2::new(x, y), pdf_y * pdf_x), "{w}x{h} at {u}");
+                let p = Vec2::new((col as f32 + 0.5) / w as f32, (row as f32 + 0.5) / h as f32);
+                assert_eq!(d2.pdf(p), marginal.density(row) * rows[row].density(col), "{w}x{h} at {p}");
             }
         }
     }
