@@ -70,10 +70,13 @@ impl AliasTable {
     }
 }
 
-/// A piecewise-constant density on [0, 1) with `func.len()` equal pieces.
+/// A piecewise-constant density on [0, 1) with `func.len()` equal pieces. A piece's density
+/// is read off the CDF, the probability sampling gives it (rounding and all) times the
+/// number of pieces: densities and samples agree exactly, and the function itself is not
+/// kept (a 1024 x 512 environment map's importance sampling holds 2 MB less, and sampling
+/// loads one array fewer).
 #[derive(Clone, Debug)]
 pub struct Distribution1D {
-    func: Vec<f32>,
     cdf: Vec<f32>,
     integral: f32,
     /// Guide table (Chen and Asau 1974): entry j is the piece holding u = j / G, for G + 1
@@ -103,12 +106,12 @@ impl Distribution1D {
         *cdf.last_mut().expect("n + 1 entries") = 1.0;
         let g = cdf.len().div_ceil(4);
         let guide = (0..=g).map(|j| (cdf.partition_point(|&c| c <= j as f32 / g as f32) - 1) as u32).collect();
-        Self { func, cdf, integral, guide }
+        Self { cdf, integral, guide }
     }
 
     /// The density's arrays, borrowed.
     fn view(&self) -> Piecewise<'_> {
-        Piecewise { func: &self.func, cdf: &self.cdf, guide: &self.guide, integral: self.integral }
+        Piecewise { cdf: &self.cdf, guide: &self.guide }
     }
 
     /// Mean of the function over [0, 1).
@@ -131,10 +134,8 @@ impl Distribution1D {
 /// density or from one row of a `Distribution2D`.
 #[derive(Clone, Copy)]
 struct Piecewise<'a> {
-    func: &'a [f32],
     cdf: &'a [f32],
     guide: &'a [u32],
-    integral: f32,
 }
 
 impl Piecewise<'_> {
@@ -151,7 +152,7 @@ impl Piecewise<'_> {
 
     /// The point for uniform `u`, its density, and its piece.
     fn sample(&self, u: f32) -> (f32, f32, usize) {
-        let n = self.func.len();
+        let n = self.cdf.len() - 1;
         let i = self.piece(u).min(n - 1);
         let width = self.cdf[i + 1] - self.cdf[i];
         let du = if width > 0.0 { (u - self.cdf[i]) / width } else { 0.0 };
@@ -159,9 +160,9 @@ impl Piecewise<'_> {
         (x, self.density(i), i)
     }
 
-    /// Density of piece `i`.
+    /// Density of piece `i`: the probability of choosing it times the number of pieces.
     fn density(&self, i: usize) -> f32 {
-        if self.integral > 0.0 { self.func[i] / self.integral } else { 1.0 }
+        (self.cdf[i + 1] - self.cdf[i]) * (self.cdf.len() - 1) as f32
     }
 }
 
@@ -174,12 +175,10 @@ pub struct Distribution2D {
     width: usize,
     /// Guide entries per row (the same for every row of one width).
     guides: usize,
-    /// Per row, `Distribution1D`'s arrays: `width` values, `width + 1` CDF entries and
-    /// `guides` guide entries, and the row's integral.
-    func: Vec<f32>,
+    /// Per row, `Distribution1D`'s arrays: `width + 1` CDF entries and `guides` guide
+    /// entries.
     cdf: Vec<f32>,
     guide: Vec<u32>,
-    integrals: Vec<f32>,
     marginal: Distribution1D,
 }
 
@@ -191,10 +190,8 @@ impl Distribution2D {
         Self {
             width,
             guides: rows.first().map_or(0, |r| r.guide.len()),
-            func: rows.iter().flat_map(|r| r.func.iter().copied()).collect(),
             cdf: rows.iter().flat_map(|r| r.cdf.iter().copied()).collect(),
             guide: rows.iter().flat_map(|r| r.guide.iter().copied()).collect(),
-            integrals: rows.iter().map(Distribution1D::integral).collect(),
             marginal,
         }
     }
@@ -202,12 +199,7 @@ impl Distribution2D {
     /// Row `r`'s conditional density.
     fn row(&self, r: usize) -> Piecewise<'_> {
         let (w, g) = (self.width, self.guides);
-        Piecewise {
-            func: &self.func[r * w..(r + 1) * w],
-            cdf: &self.cdf[r * (w + 1)..(r + 1) * (w + 1)],
-            guide: &self.guide[r * g..(r + 1) * g],
-            integral: self.integrals[r],
-        }
+        Piecewise { cdf: &self.cdf[r * (w + 1)..(r + 1) * (w + 1)], guide: &self.guide[r * g..(r + 1) * g] }
     }
 
     /// The point for uniform `u` and its density.
@@ -219,7 +211,7 @@ impl Distribution2D {
 
     /// Density at `p`.
     pub fn pdf(&self, p: Vec2) -> f32 {
-        let (w, h) = (self.width, self.integrals.len());
+        let (w, h) = (self.width, self.marginal.cdf.len() - 1);
         let row = ((p.y * h as f32) as usize).min(h - 1);
         let col = ((p.x * w as f32) as usize).min(w - 1);
         self.marginal.density(row) * self.row(row).density(col)
