@@ -82,23 +82,43 @@ static LUT16: std::sync::LazyLock<Vec<f32>> = std::sync::LazyLock::new(|| {
 
 impl Image {
     fn texel(&self, x: i64, y: i64, space: ColorSpace) -> Vec4 {
-        let i = (y as usize) * self.width as usize + x as usize;
-        match &self.texels {
-            Texels::Bytes(texels) => {
+        let [t] = self.decode([y as usize * self.width as usize + x as usize], space);
+        t
+    }
+
+    /// The four texels at (xs[0], ys[0]), (xs[1], ys[0]), (xs[0], ys[1]) and (xs[1], ys[1]).
+    fn quad(&self, xs: [usize; 2], ys: [usize; 2], space: ColorSpace) -> [Vec4; 4] {
+        let w = self.width as usize;
+        self.decode([ys[0] * w + xs[0], ys[0] * w + xs[1], ys[1] * w + xs[0], ys[1] * w + xs[1]], space)
+    }
+
+    /// The texels at row-major indices `at`, decoded to linear values with one dispatch on
+    /// the storage and colour space for all of them: a bilinear lookup's four once, not one
+    /// per texel and a look at the decoding table's lazy cell per channel.
+    fn decode<const N: usize>(&self, at: [usize; N], space: ColorSpace) -> [Vec4; N] {
+        fn each<T: Copy, const N: usize>(
+            texels: &[[T; 4]],
+            at: [usize; N],
+            lin: impl Fn(T) -> f32,
+            alpha: impl Fn(T) -> f32,
+        ) -> [Vec4; N] {
+            at.map(|i| {
                 let t = texels[i];
-                let lin = |c: u8| match space {
-                    ColorSpace::Srgb => LUT.srgb[c as usize],
-                    ColorSpace::Linear => c as f32 / 255.0,
-                };
-                Vec4::new(lin(t[0]), lin(t[1]), lin(t[2]), t[3] as f32 / 255.0)
+                Vec4::new(lin(t[0]), lin(t[1]), lin(t[2]), alpha(t[3]))
+            })
+        }
+        match (&self.texels, space) {
+            (Texels::Bytes(t), ColorSpace::Srgb) => {
+                let lut = &LUT.srgb;
+                each(t, at, |c| lut[c as usize], |c| c as f32 / 255.0)
             }
-            Texels::Words(texels) => {
-                let t = texels[i];
-                let lin = |c: u16| match space {
-                    ColorSpace::Srgb => LUT16[c as usize],
-                    ColorSpace::Linear => f32::from(c) / 65535.0,
-                };
-                Vec4::new(lin(t[0]), lin(t[1]), lin(t[2]), f32::from(t[3]) / 65535.0)
+            (Texels::Bytes(t), ColorSpace::Linear) => each(t, at, |c| c as f32 / 255.0, |c| c as f32 / 255.0),
+            (Texels::Words(t), ColorSpace::Srgb) => {
+                let lut = &**LUT16;
+                each(t, at, |c| lut[c as usize], |c| f32::from(c) / 65535.0)
+            }
+            (Texels::Words(t), ColorSpace::Linear) => {
+                each(t, at, |c| f32::from(c) / 65535.0, |c| f32::from(c) / 65535.0)
             }
         }
     }
@@ -133,15 +153,18 @@ impl Texture {
         if !(x.is_finite() && y.is_finite()) {
             return img.texel(0, 0, space);
         }
-        let fetch = |xi: i64, yi: i64| img.texel(wrap(xi, w, self.wrap[0]), wrap(yi, h, self.wrap[1]), space);
         if self.nearest {
-            return fetch((x + 0.5).floor() as i64, (y + 0.5).floor() as i64);
+            let (xi, yi) = ((x + 0.5).floor() as i64, (y + 0.5).floor() as i64);
+            return img.texel(wrap(xi, w, self.wrap[0]), wrap(yi, h, self.wrap[1]), space);
         }
         let (x0, y0) = (x.floor(), y.floor());
         let (fx, fy) = (x - x0, y - y0);
         let (x0, y0) = (x0 as i64, y0 as i64);
-        let top = fetch(x0, y0).lerp(fetch(x0 + 1, y0), fx);
-        let bottom = fetch(x0, y0 + 1).lerp(fetch(x0 + 1, y0 + 1), fx);
+        let xs = [x0, x0 + 1].map(|xi| wrap(xi, w, self.wrap[0]) as usize);
+        let ys = [y0, y0 + 1].map(|yi| wrap(yi, h, self.wrap[1]) as usize);
+        let [t00, t10, t01, t11] = img.quad(xs, ys, space);
+        let top = t00.lerp(t10, fx);
+        let bottom = t01.lerp(t11, fx);
         top.lerp(bottom, fy)
     }
 }
@@ -161,6 +184,46 @@ mod tests {
         assert_eq!(wrap(-1, 4, Wrap::MirroredRepeat), 0);
         assert_eq!(wrap(5, 4, Wrap::MirroredRepeat), 2);
         assert_eq!(wrap(9, 4, Wrap::ClampToEdge), 3);
+    }
+
+    #[test]
+    fn a_bilinear_lookup_blends_the_four_texels_each_read_alone() {
+        let (w, h) = (5u32, 3u32);
+        let mut bits = 0x2545_f491u32;
+        let mut next = move || {
+            bits ^= bits << 13;
+            bits ^= bits >> 17;
+            bits ^= bits << 5;
+            bits
+        };
+        let bytes: Vec<[u8; 4]> = (0..w * h).map(|_| next().to_le_bytes()).collect();
+        let words: Vec<[u16; 4]> =
+            (0..w * h).map(|_| [next() as u16, next() as u16, next() as u16, next() as u16]).collect();
+        let images = [
+            Image { width: w, height: h, texels: Texels::Bytes(bytes) },
+            Image { width: w, height: h, texels: Texels::Words(words) },
+        ];
+        let modes = [Wrap::Repeat, Wrap::MirroredRepeat, Wrap::ClampToEdge];
+        for (image, img) in images.iter().enumerate() {
+            for (wrap_u, wrap_v) in modes.iter().flat_map(|&a| modes.map(|b| (a, b))) {
+                let t = Texture { name: "t".into(), image: image as u32, wrap: [wrap_u, wrap_v], nearest: false };
+                for space in [ColorSpace::Srgb, ColorSpace::Linear] {
+                    for _ in 0..200 {
+                        let uv =
+                            Vec2::new(next() as f32 / u32::MAX as f32, next() as f32 / u32::MAX as f32) * 3.0 - 1.0;
+                        let (x, y) = (uv.x * w as f32 - 0.5, uv.y * h as f32 - 0.5);
+                        let (x0, y0) = (x.floor(), y.floor());
+                        let at = |dx: i64, dy: i64| {
+                            let xi = wrap(x0 as i64 + dx, w as i64, wrap_u);
+                            img.texel(xi, wrap(y0 as i64 + dy, h as i64, wrap_v), space)
+                        };
+                        let top = at(0, 0).lerp(at(1, 0), x - x0);
+                        let want = top.lerp(at(0, 1).lerp(at(1, 1), x - x0), y - y0);
+                        assert_eq!(t.sample(&images, uv, space), want, "image {image}, {wrap_u:?} {wrap_v:?}, {uv}");
+                    }
+                }
+            }
+        }
     }
 
     #[test]
