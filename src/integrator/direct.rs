@@ -120,10 +120,11 @@ fn shadow_through(
         let Some(hit) = scene.intersect(&ray, settings.watertight, false) else {
             return tr * segment(scene, &media, (ray.o, ray.d, ray.tmax), sampler, wl);
         };
-        let surface = scene.surface(&hit);
-        if !scene.materials[surface.material as usize].is_transmissive() {
+        // The material first: a blocker's surface (its normal map, say) is not needed.
+        if !scene.material_at(hit.tri).is_transmissive() {
             return Spectrum::ZERO;
         }
+        let surface = scene.surface(&hit);
         tr *= segment(scene, &media, (ray.o, ray.d, hit.t), sampler, wl);
         let vertex = Vertex::new(scene, settings, surface, ray.d, media, &mut wl.clone());
         let Some(passed) = vertex.bsdf.null_transmission(vertex.wo) else { return Spectrum::ZERO };

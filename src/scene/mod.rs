@@ -408,6 +408,11 @@ impl Scene {
         0.5 * (self.bounds.1 - self.bounds.0).length()
     }
 
+    /// The material of triangle `tri`.
+    pub fn material_at(&self, tri: u32) -> &Material {
+        &self.materials[self.geometry.with_triangle(tri, |_, a, _| a.material) as usize]
+    }
+
     /// Surface data at a hit, with the material's normal map applied to the shading normal.
     pub fn surface(&self, hit: &Hit) -> Surface {
         let b = hit.b;
