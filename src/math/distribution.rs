@@ -227,13 +227,17 @@ impl Distribution2D {
 mod tests {
     use super::*;
 
-    #[test]
-    fn the_guide_table_finds_the_piece_bisection_finds() {
-        let mut state = 0x2545_f491_4f6c_dd1du64;
-        let mut next = || {
+    /// Uniform numbers in [0, 1) from a SplitMix64 stream starting at `state`.
+    fn uniforms(mut state: u64) -> impl FnMut() -> f32 {
+        move || {
             state = crate::math::sampler::mix64(state.wrapping_add(0x9e37_79b9_7f4a_7c15));
             (state >> 40) as f32 / (1u64 << 24) as f32
-        };
+        }
+    }
+
+    #[test]
+    fn the_guide_table_finds_the_piece_bisection_finds() {
+        let mut next = uniforms(0x2545_f491_4f6c_dd1d);
         for n in [1usize, 2, 3, 5, 17, 64, 1000] {
             // Zeros, spikes and smooth stretches, so that guide buckets hold many pieces or none.
             let func: Vec<f32> = (0..n)
@@ -258,11 +262,7 @@ mod tests {
 
     #[test]
     fn a_2d_densitys_rows_sample_as_their_own_1d_densities_do() {
-        let mut state = 0x9e37_79b9_7f4a_7c15u64;
-        let mut next = || {
-            state = crate::math::sampler::mix64(state.wrapping_add(0x2545_f491_4f6c_dd1d));
-            (state >> 40) as f32 / (1u64 << 24) as f32
-        };
+        let mut next = uniforms(0x9e37_79b9_7f4a_7c15);
         for (w, h) in [(2usize, 1usize), (3, 5), (16, 8), (33, 7)] {
             let func: Vec<f32> = (0..w * h).map(|i| if i % 5 == 2 { 0.0 } else { next() }).collect();
             let d2 = Distribution2D::new(&func, w);
