@@ -657,18 +657,19 @@ const INTERACTIVE_PASS: Duration = Duration::from_millis(100);
 /// How long a pass should take at least where only the last snapshot's images are read and
 /// no deadline is set (the command line's renders of a fixed count): at the end of every
 /// pass the workers wait for its last tile, and with four times longer passes a 64-spp
-/// Cornell box render took 0.99 of the time (README, "Speed").
+/// Cornell box render took 0.995 of the time and ToyCar 0.973 (README, "Speed").
 const BATCH_PASS: Duration = Duration::from_millis(400);
 
 /// Samples in the pass after one of `pass` samples that took `took` and ended at sample
 /// index `end`: a power of two, doubled for passes under `pace` (up to 64) and halved for
-/// passes over four times that, and doubled only where `end` is a multiple of the doubled size. Every
-/// pass then covers an aligned block of 2^k indices, one of the Sobol sequence's (0, k,
-/// 2)-nets, and the samples a snapshot holds are a union of few nets: passes of 1, 2, 4,
-/// 4, ... ended at 7 + 4k samples (115 = 64 + 32 + 16 + 2 + 1, five nets), passes of 1, 1,
-/// 2, 4, 4, ... end at a multiple of 4 (116 = 64 + 32 + 16 + 4). Each net leaves up to one
-/// sample's error in the share of a pixel an edge covers, and the pixels along the Cornell
-/// light's edges hold a third of a time-budgeted render's squared error.
+/// passes over four times that, and doubled only where `end` is a multiple of the doubled
+/// size. Every pass then covers an aligned block of 2^k indices, one of the Sobol
+/// sequence's (0, k, 2)-nets, and the samples a snapshot holds are a union of few nets:
+/// passes of 1, 2, 4, 4, ... ended at 7 + 4k samples (115 = 64 + 32 + 16 + 2 + 1, five
+/// nets), passes of 1, 1, 2, 4, 4, ... end at a multiple of 4 (116 = 64 + 32 + 16 + 4).
+/// Each net leaves up to one sample's error in the share of a pixel an edge covers, and the
+/// pixels along the Cornell light's edges hold a third of a time-budgeted render's squared
+/// error.
 fn next_pass(pass: u32, end: u64, took: Duration, pace: Duration) -> u32 {
     if took < pace {
         let doubled = (pass * 2).min(64);
