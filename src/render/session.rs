@@ -492,8 +492,6 @@ fn coordinate(shared: &Shared, pool: &rayon::ThreadPool) {
             (state.deadline, state.images_at_end)
         };
         let Some(a) = active.as_mut() else { continue };
-        // Nobody looks at the images between passes and no deadline needs fine steps: long
-        // passes, for fewer ends of passes at which workers wait for the last tile.
         let pace = if images_at_end && deadline.is_none() { BATCH_PASS } else { INTERACTIVE_PASS };
         if !run_pass(shared, pool, a, deadline, pace) {
             continue;
