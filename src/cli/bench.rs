@@ -89,8 +89,9 @@ fn convergence_args(args: &BenchArgs) -> Result<ConvergenceArgs, String> {
 }
 
 fn kernel_variants(scene: &Arc<Scene>, settings: Settings) -> Vec<Variant> {
-    let general = scene.with_edits(scene.materials.clone(), scene.lights.clone());
-    let general = Arc::new(Scene { features: Features::ALL, ..general });
+    let mut general = scene.with_edits(scene.materials.clone(), scene.lights.clone());
+    general.features = Features::ALL;
+    let general = Arc::new(general);
     vec![
         Variant { label: "scene's features".into(), scene: Arc::clone(scene), settings },
         Variant { label: "every feature on".into(), scene: general, settings },

@@ -204,6 +204,9 @@ pub struct Scene {
     pub environment: Option<Environment>,
     /// Power-proportional choice among all lights.
     pub light_sampler: LightSampler,
+    /// The emissive triangles the light sampler chooses among, kept for copies with the same
+    /// materials.
+    emitters: Arc<Emitters>,
     /// Named cameras from the file.
     pub cameras: Vec<(String, Camera)>,
     /// Bounds of all geometry (min, max).
@@ -299,12 +302,14 @@ impl Scene {
             lights,
             environment: None,
             light_sampler: LightSampler::default(),
+            emitters: Arc::default(),
             cameras,
             bounds,
             features: Features::default(),
             warnings,
             variants,
         };
+        scene.emitters = Arc::new(Emitters::new(&scene.geometry, &scene.materials, &scene.textures, &scene.images));
         scene.update_lighting();
         scene
     }
@@ -312,15 +317,23 @@ impl Scene {
     /// A copy with other materials and punctual lights, sharing the BVH and the images: only
     /// the light sampler and the feature set are rebuilt. Used by the viewer's editors.
     pub fn with_edits(&self, materials: Vec<Material>, lights: Vec<PunctualLight>) -> Self {
-        self.copy(materials, lights, self.environment.clone())
+        let emitters = Arc::new(Emitters::new(&self.geometry, &materials, &self.textures, &self.images));
+        self.copy(materials, lights, self.environment.clone(), emitters)
     }
 
     /// A copy lit by `environment` (None, or a black one, for no light from outside).
     pub fn with_environment(&self, environment: Option<Environment>) -> Self {
-        self.copy(self.materials.clone(), self.lights.clone(), environment.filter(|e| !e.settings.is_black()))
+        let environment = environment.filter(|e| !e.settings.is_black());
+        self.copy(self.materials.clone(), self.lights.clone(), environment, Arc::clone(&self.emitters))
     }
 
-    fn copy(&self, materials: Vec<Material>, lights: Vec<PunctualLight>, environment: Option<Environment>) -> Self {
+    fn copy(
+        &self,
+        materials: Vec<Material>,
+        lights: Vec<PunctualLight>,
+        environment: Option<Environment>,
+        emitters: Arc<Emitters>,
+    ) -> Self {
         let mut scene = Self {
             name: self.name.clone(),
             geometry: Arc::clone(&self.geometry),
@@ -331,6 +344,7 @@ impl Scene {
             lights,
             environment,
             light_sampler: LightSampler::default(),
+            emitters,
             cameras: self.cameras.clone(),
             bounds: self.bounds,
             features: Features::default(),
@@ -352,12 +366,17 @@ impl Scene {
                 && self.geometry.materials().any(|(_, m)| lamp(&self.materials[m as usize])))
     }
 
-    /// Rebuilds the light sampler and the feature set from the materials and lights.
+    /// Rebuilds the light sampler, from the emitters, the punctual lights and the
+    /// environment, and the feature set.
     fn update_lighting(&mut self) {
         let (geometry, materials) = (&self.geometry, &self.materials);
-        let env = self.environment.as_ref().map(|e| e.power(self.radius()));
-        self.light_sampler =
-            build_light_sampler(geometry, materials, &self.textures, &self.images, &self.lights, self.bounds, env);
+        let mut candidates = self.emitters.candidates.clone();
+        let radius = self.radius();
+        candidates.extend(self.lights.iter().enumerate().map(|(i, l)| (LightRef::Punctual(i as u32), l.power(radius))));
+        if let Some(env) = &self.environment {
+            candidates.push((LightRef::Environment, env.power(radius)));
+        }
+        self.light_sampler = LightSampler::new(candidates, &self.emitters.areas);
         let mut seen = vec![false; materials.len()];
         geometry.materials().for_each(|(_, m)| seen[m as usize] = true);
         let used: Vec<&Material> = materials.iter().zip(seen).filter(|(_, s)| *s).map(|(m, _)| m).collect();
@@ -704,60 +723,56 @@ fn volume_problem(mesh: &MeshDesc) -> Option<String> {
     }
 }
 
-fn build_light_sampler(
-    geometry: &Geometry,
-    materials: &[Material],
-    textures: &[Texture],
-    images: &[Image],
-    lights: &[PunctualLight],
-    bounds: (Vec3, Vec3),
-    environment_power: Option<f32>,
-) -> LightSampler {
-    let mean_emission: Vec<f32> = materials
-        .iter()
-        .map(|m| {
-            if m.unlit {
-                return 0.0;
-            }
-            let tex = m.emissive_tex.map_or(Vec3::ONE, |t| {
-                images[textures[t.texture as usize].image as usize].mean(ColorSpace::Srgb).truncate()
-            });
-            luminance(m.emitted() * tex)
-        })
-        .collect();
-    let (mut candidates, mut areas) = (Vec::new(), Vec::new());
-    for (t, material) in geometry.materials() {
-        let material = material as usize;
-        let le = mean_emission[material];
-        if le > 0.0 {
-            let p = geometry.positions(t);
-            let area = 0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length();
-            let le = match materials[material].emissive_tex {
-                // A textured emitter is weighted by its texture over the triangle's UV
-                // footprint, mixed with a tenth of the texture's mean so that every triangle
-                // that may emit keeps a chance (explicit light sampling counts no other way).
-                Some(tex) => {
-                    let uv = triangle_uvs(geometry, t, tex.set);
-                    let footprint = footprint_emission(materials[material].emitted(), tex, uv, textures, images);
-                    0.9 * footprint + 0.1 * le
+/// The emissive triangles as light-sampling candidates, each with its power, and the area of
+/// each emissive triangle (empty without any): integrating a textured emitter over its
+/// triangles is most of building a light sampler, and a new environment changes none of it.
+#[derive(Default)]
+struct Emitters {
+    candidates: Vec<(LightRef, f32)>,
+    areas: Vec<f32>,
+}
+
+impl Emitters {
+    fn new(geometry: &Geometry, materials: &[Material], textures: &[Texture], images: &[Image]) -> Self {
+        let mean_emission: Vec<f32> = materials
+            .iter()
+            .map(|m| {
+                if m.unlit {
+                    return 0.0;
                 }
-                None => le,
-            };
-            candidates.push((LightRef::Triangle(t), std::f32::consts::PI * area * le));
-            if areas.is_empty() {
-                areas = vec![0.0; geometry.len()];
+                let tex = m.emissive_tex.map_or(Vec3::ONE, |t| {
+                    images[textures[t.texture as usize].image as usize].mean(ColorSpace::Srgb).truncate()
+                });
+                luminance(m.emitted() * tex)
+            })
+            .collect();
+        let mut emitters = Self::default();
+        for (t, material) in geometry.materials() {
+            let material = material as usize;
+            let le = mean_emission[material];
+            if le > 0.0 {
+                let p = geometry.positions(t);
+                let area = 0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length();
+                let le = match materials[material].emissive_tex {
+                    // A textured emitter is weighted by its texture over the triangle's UV
+                    // footprint, mixed with a tenth of the texture's mean so that every triangle
+                    // that may emit keeps a chance (explicit light sampling counts no other way).
+                    Some(tex) => {
+                        let uv = triangle_uvs(geometry, t, tex.set);
+                        let footprint = footprint_emission(materials[material].emitted(), tex, uv, textures, images);
+                        0.9 * footprint + 0.1 * le
+                    }
+                    None => le,
+                };
+                emitters.candidates.push((LightRef::Triangle(t), std::f32::consts::PI * area * le));
+                if emitters.areas.is_empty() {
+                    emitters.areas = vec![0.0; geometry.len()];
+                }
+                emitters.areas[t as usize] = area;
             }
-            areas[t as usize] = area;
         }
+        emitters
     }
-    let radius = 0.5 * (bounds.1 - bounds.0).length();
-    for (i, l) in lights.iter().enumerate() {
-        candidates.push((LightRef::Punctual(i as u32), l.power(radius)));
-    }
-    if let Some(power) = environment_power {
-        candidates.push((LightRef::Environment, power));
-    }
-    LightSampler::new(candidates, &areas)
 }
 
 /// Texture coordinates of `set` (0 or 1) at the corners of triangle `t`.
@@ -871,8 +886,9 @@ mod tests {
         assert_eq!(normal_mapped(Vec3::Z, Vec4::ZERO, m), Vec3::Z, "no tangent: no mapping");
     }
 
-    #[test]
-    fn textured_emitters_are_chosen_by_the_texture_over_their_footprint() {
+    /// Two emissive triangles of one area, at z = 0 and z = 1, mapped into the white left half
+    /// and the black right half of a 16x1 emissive texture.
+    fn screen_scene() -> Scene {
         use texture::Wrap;
         // A 16x1 emissive texture, white on its left half and black on its right; two
         // triangles of one area, one mapped into each half.
@@ -896,13 +912,44 @@ mod tests {
             images: vec![Image { width: 16, height: 1, texels: texture::Texels::Bytes(texels) }],
             ..SceneDesc::default()
         };
-        let scene = Scene::build(desc);
-        let pmf = |z: f32| {
-            let t = (0..scene.geometry.len() as u32).find(|&t| scene.geometry.positions(t)[0].z == z).unwrap();
-            scene.light_sampler.triangle_pmf(t)
-        };
+        Scene::build(desc)
+    }
+
+    /// The light sampler's probability of the screen's triangle at `z`.
+    fn screen_pmf(scene: &Scene, z: f32) -> f32 {
+        let t = (0..scene.geometry.len() as u32).find(|&t| scene.geometry.positions(t)[0].z == z).unwrap();
+        scene.light_sampler.triangle_pmf(t)
+    }
+
+    #[test]
+    fn textured_emitters_are_chosen_by_the_texture_over_their_footprint() {
+        let scene = screen_scene();
+        let pmf = |z: f32| screen_pmf(&scene, z);
         // White footprint: 0.9 x 1 + 0.1 x 0.5 (the texture's mean); black: 0.1 x 0.5.
         assert!((pmf(0.0) / pmf(1.0) - 19.0).abs() < 1e-3, "{} {}", pmf(0.0), pmf(1.0));
         assert!((pmf(0.0) + pmf(1.0) - 1.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn a_new_environment_keeps_the_emitters_and_edits_recompute_them() {
+        let scene = screen_scene();
+        let lit = scene.with_environment(Some(Environment::load(environment::EnvSettings::built_in()).unwrap()));
+        let env = lit.light_sampler.environment_pmf();
+        assert!(env > 0.0 && env < 1.0, "{env}");
+        for z in [0.0, 1.0] {
+            let (before, after) = (screen_pmf(&scene, z), screen_pmf(&lit, z));
+            assert!((after / before - (1.0 - env)).abs() < 1e-5, "z = {z}: {before} then {after}");
+        }
+        // Edits integrate the emitters again, from their own materials: the same materials
+        // give the same probabilities, to the bit.
+        let edited = lit.with_edits(lit.materials.clone(), lit.lights.clone());
+        for z in [0.0, 1.0] {
+            assert_eq!(screen_pmf(&edited, z).to_bits(), screen_pmf(&lit, z).to_bits(), "z = {z}");
+        }
+        // A black screen emits nothing: the edit leaves the environment alone to sample.
+        let mut dark = lit.materials.clone();
+        dark[0].emissive = Vec3::ZERO;
+        let dark = lit.with_edits(dark, lit.lights.clone());
+        assert_eq!((screen_pmf(&dark, 0.0), dark.light_sampler.environment_pmf()), (0.0, 1.0));
     }
 }
