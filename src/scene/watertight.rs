@@ -67,14 +67,14 @@ impl Watertight {
         Edges { u, v, w, t_num }.finish(tmax)
     }
 
-    /// The test on the four triangles `i..i + 4` of `tris` whose bits are set in `lanes`:
-    /// a bit mask of the lanes that may hit (the others miss for certain) and, per lane,
-    /// what `finish` needs. The arithmetic is the scalar test's, operation for operation,
-    /// so a lane's result is bit-identical to `intersect`'s; lanes with an edge function
-    /// of exactly zero are flagged in the mask's high nibble for the scalar test, which
-    /// resolves them in f64.
+    /// The test on the four triangles `i..i + 4` of `tris` whose bits are set in `lanes`,
+    /// within (0, `tmax`): a bit mask of the lanes that hit and, per lane, the edge
+    /// functions and the distance. The arithmetic is `finish`'s and the scalar test's,
+    /// operation for operation, so a lane's result is bit-identical to `intersect`'s; lanes
+    /// with an edge function of exactly zero are flagged in the mask's high nibble instead,
+    /// for the scalar test, which resolves them in f64.
     #[inline]
-    fn intersect4(&self, tris: &SoaTriangles, i: usize, lanes: u32) -> (u32, [Vec4; 4]) {
+    fn intersect4(&self, tris: &SoaTriangles, i: usize, lanes: u32, tmax: f32) -> (u32, [Vec4; 4]) {
         let [kx, ky, kz] = self.k;
         let o = self.o.to_array();
         assert!(kx < 3 && ky < 3 && kz < 3);
@@ -97,8 +97,11 @@ impl Watertight {
         let outside = BVec4A::bitmask(negative & positive) & !BVec4A::bitmask(exact);
         let inside = !outside & lanes & 0xf;
         let flagged = BVec4A::bitmask(exact) & inside;
-        let t_num = u * az + v * bz + w * cz;
-        (inside | flagged << 4, [u, v, w, t_num])
+        // `finish` for every lane at once: the lanes that miss drop out without a branch each.
+        let det = u + v + w;
+        let t = (u * az + v * bz + w * cz) / det;
+        let hit = BVec4A::bitmask(det.cmpne(zero) & t.cmpgt(zero) & t.cmplt(Vec4::splat(tmax)));
+        (inside & hit & !flagged | flagged << 4, [u, v, w, t])
     }
 }
 
@@ -140,11 +143,11 @@ impl SoaTriangles {
     }
 }
 
-/// Candidate hits of a group of up to 32 triangles `base + bit` (the bits of `group`), in
-/// the order the scalar traversal tests them (highest bit first), each as the triangle, its
-/// distance and barycentrics: `visit` returns false to stop. `tmax` is read before each
-/// quadruple, so hits beyond a closer one already found are dropped early; `visit` must
-/// still compare, since a quadruple's hits all come against the bound at its start.
+/// Hits of a group of up to 32 triangles `base + bit` (the bits of `group`), in the order
+/// the scalar traversal tests them (highest bit first), each as the triangle, its distance
+/// and barycentrics: `visit` returns false to stop. `tmax` is read before each quadruple,
+/// so hits beyond a closer one already found are dropped early; `visit` must still
+/// compare, since a quadruple's hits all come against the bound at its start.
 #[inline]
 pub(super) fn intersect_group(
     wt: &Watertight,
@@ -164,17 +167,18 @@ pub(super) fn intersect_group(
         let lanes = (group >> start) & 0xf;
         if lanes != 0 {
             let i = (base + start) as usize;
-            let (mask, [u, v, w, t_num]) = wt.intersect4(tris, i, lanes);
-            let (u, v, w, t_num) = (u.to_array(), v.to_array(), w.to_array(), t_num.to_array());
-            let mut inside = mask & 0xf;
-            while inside != 0 {
-                let lane = (31 - inside.leading_zeros()) as usize;
-                inside &= !(1 << lane);
+            let (mask, [u, v, w, t]) = wt.intersect4(tris, i, lanes, tmax());
+            let (u, v, w, t) = (u.to_array(), v.to_array(), w.to_array(), t.to_array());
+            let mut pending = (mask | mask >> 4) & 0xf;
+            while pending != 0 {
+                let lane = (31 - pending.leading_zeros()) as usize;
+                pending &= !(1 << lane);
                 let tri = i + lane;
                 let hit = if mask >> (lane + 4) & 1 != 0 {
                     wt.intersect(&positions[tri], tmax())
                 } else {
-                    Edges { u: u[lane], v: v[lane], w: w[lane], t_num: t_num[lane] }.finish(tmax())
+                    let inv = 1.0 / (u[lane] + v[lane] + w[lane]);
+                    Some((t[lane], [u[lane] * inv, v[lane] * inv, w[lane] * inv]))
                 };
                 if let Some((t, b)) = hit
                     && !visit(tri as u32, t, b)
