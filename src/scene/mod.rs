@@ -317,23 +317,22 @@ impl Scene {
     /// A copy with other materials and punctual lights, sharing the BVH and the images: only
     /// the light sampler and the feature set are rebuilt. Used by the viewer's editors.
     pub fn with_edits(&self, materials: Vec<Material>, lights: Vec<PunctualLight>) -> Self {
-        let emitters = Arc::new(Emitters::new(&self.geometry, &materials, &self.textures, &self.images));
-        self.copy(materials, lights, self.environment.clone(), emitters)
+        self.copy(materials, lights, self.environment.clone())
     }
 
     /// A copy lit by `environment` (None, or a black one, for no light from outside).
     pub fn with_environment(&self, environment: Option<Environment>) -> Self {
         let environment = environment.filter(|e| !e.settings.is_black());
-        self.copy(self.materials.clone(), self.lights.clone(), environment, Arc::clone(&self.emitters))
+        self.copy(self.materials.clone(), self.lights.clone(), environment)
     }
 
-    fn copy(
-        &self,
-        materials: Vec<Material>,
-        lights: Vec<PunctualLight>,
-        environment: Option<Environment>,
-        emitters: Arc<Emitters>,
-    ) -> Self {
+    /// The copy keeps the emitters while the materials are the same.
+    fn copy(&self, materials: Vec<Material>, lights: Vec<PunctualLight>, environment: Option<Environment>) -> Self {
+        let emitters = if materials == self.materials {
+            Arc::clone(&self.emitters)
+        } else {
+            Arc::new(Emitters::new(&self.geometry, &materials, &self.textures, &self.images))
+        };
         let mut scene = Self {
             name: self.name.clone(),
             geometry: Arc::clone(&self.geometry),
@@ -940,8 +939,8 @@ mod tests {
             let (before, after) = (screen_pmf(&scene, z), screen_pmf(&lit, z));
             assert!((after / before - (1.0 - env)).abs() < 1e-5, "z = {z}: {before} then {after}");
         }
-        // Edits integrate the emitters again, from their own materials: the same materials
-        // give the same probabilities, to the bit.
+        // Edits keep the emitters while the materials stay, and integrate them again from
+        // the new materials otherwise: the same materials give the same probabilities.
         let edited = lit.with_edits(lit.materials.clone(), lit.lights.clone());
         for z in [0.0, 1.0] {
             assert_eq!(screen_pmf(&edited, z).to_bits(), screen_pmf(&lit, z).to_bits(), "z = {z}");

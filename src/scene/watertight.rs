@@ -121,9 +121,15 @@ impl Edges {
         if !(t > 0.0 && t < tmax) {
             return None;
         }
-        let inv = 1.0 / det;
-        Some((t, [u * inv, v * inv, w * inv]))
+        Some((t, barycentrics(u, v, w)))
     }
+}
+
+/// The barycentrics of a hit from its edge functions, each over their sum.
+#[inline]
+fn barycentrics(u: f32, v: f32, w: f32) -> [f32; 3] {
+    let inv = 1.0 / (u + v + w);
+    [u * inv, v * inv, w * inv]
 }
 
 /// Triangle vertex coordinates as nine arrays, `c[3 * vertex + axis][triangle]`, padded
@@ -177,8 +183,7 @@ pub(super) fn intersect_group(
                 let hit = if mask >> (lane + 4) & 1 != 0 {
                     wt.intersect(&positions[tri], tmax())
                 } else {
-                    let inv = 1.0 / (u[lane] + v[lane] + w[lane]);
-                    Some((t[lane], [u[lane] * inv, v[lane] * inv, w[lane] * inv]))
+                    Some((t[lane], barycentrics(u[lane], v[lane], w[lane])))
                 };
                 if let Some((t, b)) = hit
                     && !visit(tri as u32, t, b)
