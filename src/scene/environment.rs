@@ -3,6 +3,7 @@
 //! importance-sampled by a 2D piecewise-constant density over the texels, in proportion to
 //! radiance x sin(theta).
 
+use super::rgbe::Texels;
 use crate::math::{distribution::Distribution2D, luminance, warp, wrap_index};
 use crate::spectrum::Spectrum;
 use glam::{Vec2, Vec3};
@@ -68,7 +69,7 @@ const BUILT_IN_HDR: &[u8] = include_bytes!("../../assets/venice_sunset_1k.hdr");
 pub struct EnvMap {
     width: usize,
     height: usize,
-    texels: Vec<Vec3>,
+    texels: Texels,
     distribution: Distribution2D,
     /// Mean luminance over the sphere (per steradian), for light selection by power.
     mean_luminance: f32,
@@ -122,13 +123,13 @@ impl EnvMap {
         let mean_luminance =
             (total * (PI as f64 / height as f64) * (TAU as f64 / width as f64) / (4.0 * PI as f64)) as f32;
         let distribution = Distribution2D::new(&func, width);
-        Self { width, height, texels, distribution, mean_luminance }
+        Self { width, height, texels: Texels::new(texels), distribution, mean_luminance }
     }
 
     fn texel(&self, x: i64, y: i64) -> Vec3 {
         let x = wrap_index(x, self.width as i64) as usize;
         let y = y.clamp(0, self.height as i64 - 1) as usize;
-        self.texels[y * self.width + x]
+        self.texels.get(y * self.width + x)
     }
 
     /// Bilinear radiance at map coordinates `uv` in [0, 1)^2 (wrapping in u).
@@ -280,6 +281,18 @@ mod tests {
         let d = Vec3::new(0.3, 0.5, -0.8).normalize();
         assert!((env.to_world(env.to_map(d)) - d).length() < 1e-6);
         assert!((env.to_world(Vec3::NEG_Z) - Vec3::NEG_X).length() < 1e-6, "{}", env.to_world(Vec3::NEG_Z));
+    }
+
+    #[test]
+    fn the_built_in_sky_keeps_its_texels_in_four_bytes_each_and_bit_for_bit() {
+        let map = EnvMap::load(Path::new(BUILT_IN)).expect("the built-in sky");
+        let Texels::Rgbe(_) = map.texels else { panic!("the .hdr sky's texels should all be RGBE values") };
+        let decoded = image::load_from_memory_with_format(BUILT_IN_HDR, image::ImageFormat::Hdr)
+            .expect("the built-in sky")
+            .into_rgb32f();
+        for (i, p) in decoded.pixels().enumerate() {
+            assert_eq!(map.texels.get(i).to_array().map(f32::to_bits), p.0.map(f32::to_bits), "texel {i}");
+        }
     }
 
     #[test]

@@ -9,6 +9,7 @@ pub mod geometry;
 pub mod instances;
 pub mod light;
 pub mod material;
+mod rgbe;
 pub mod shading;
 pub mod shapes;
 pub mod texture;
