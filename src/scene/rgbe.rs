@@ -55,13 +55,13 @@ fn decode([r, g, b, e]: [u8; 4]) -> Vec3 {
 
 /// `t` as RGBE if `decode` gives it back bit for bit. The exponent is the one that puts the
 /// largest component's mantissa in [128, 256): for a normal float of biased exponent B,
-/// e = B + 2. Zero is all zero bytes; a subnormal largest component is left as a float.
+/// e = B + 2. Zero (+0, as the decoder gives it) is all zero bytes; a subnormal largest
+/// component, or a -0, is left as a float.
 fn encode(t: Vec3) -> Option<[u8; 4]> {
-    let m = t.max_element();
-    if m == 0.0 && t.min_element() == 0.0 {
+    if t.to_array().map(f32::to_bits) == [0; 3] {
         return Some([0; 4]);
     }
-    let biased = (m.to_bits() >> 23) & 0xff;
+    let biased = (t.max_element().to_bits() >> 23) & 0xff;
     if !(1..=253).contains(&biased) || t.min_element() < 0.0 {
         return None;
     }
@@ -105,7 +105,8 @@ mod tests {
         let texels = Texels::new(vec![exact, Vec3::new(1.0 + 1.0 / 1024.0, 0.5, 0.25)]);
         assert!(matches!(texels, Texels::Linear(_)));
         assert_eq!(texels.get(1), Vec3::new(1.0 + 1.0 / 1024.0, 0.5, 0.25));
-        // Components too far apart for one exponent.
+        // Components too far apart for one exponent; a negative zero, which RGBE lacks.
         assert!(matches!(Texels::new(vec![Vec3::new(1000.0, 1e-6, 0.0)]), Texels::Linear(_)));
+        assert!(matches!(Texels::new(vec![Vec3::new(0.0, -0.0, 0.0)]), Texels::Linear(_)));
     }
 }
