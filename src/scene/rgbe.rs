@@ -53,24 +53,15 @@ fn decode([r, g, b, e]: [u8; 4]) -> Vec3 {
     Vec3::new(scale * r as f32, scale * g as f32, scale * b as f32)
 }
 
-/// `t` as RGBE if `decode` gives it back bit for bit. The exponent is the one that puts the
-/// largest component's mantissa in [128, 256): for a normal float of biased exponent B,
-/// e = B + 2. Zero (+0, as the decoder gives it) is all zero bytes; a subnormal largest
-/// component, or a -0, is left as a float.
+/// `t` as RGBE if `decode` gives it back bit for bit, the only test needed: a mantissa that
+/// is not a whole number of steps, beyond 255, negative, a -0 or not a number does not
+/// come back. The exponent is the one that puts the largest component's mantissa in
+/// [128, 256): for a float of biased exponent B, e = B + 2.
 fn encode(t: Vec3) -> Option<[u8; 4]> {
-    if t.to_array().map(f32::to_bits) == [0; 3] {
-        return Some([0; 4]);
-    }
-    let biased = (t.max_element().to_bits() >> 23) & 0xff;
-    if !(1..=253).contains(&biased) || t.min_element() < 0.0 {
-        return None;
-    }
-    let e = biased as usize + 2;
-    let mantissa = |v: f32| {
-        let c = v / SCALE[e];
-        (c.fract() == 0.0 && c <= 255.0).then_some(c as u8)
-    };
-    let rgbe = [mantissa(t.x)?, mantissa(t.y)?, mantissa(t.z)?, e as u8];
+    let e = u8::try_from((t.max_element().to_bits() >> 23 & 0xff) + 2).ok()?;
+    let scale = SCALE[e as usize];
+    let [r, g, b] = t.to_array().map(|v| (v / scale) as u8);
+    let rgbe = [r, g, b, e];
     (decode(rgbe).to_array().map(f32::to_bits) == t.to_array().map(f32::to_bits)).then_some(rgbe)
 }
 
