@@ -113,7 +113,8 @@ fn the_error_estimate_is_honest_for_both_samplers_and_the_old_one_overstates_sob
     // replicate pairs (about k), so about 1 / (1/k + 1/63) per pixel; for independent
     // sampling the samples' luminance variance (63). Without a threshold, Sobol's readout is
     // the per-channel sample variance over n (as `pixel_relative_error` combines it): it
-    // must fall below the lower bound, i.e. overstate the error.
+    // must fall below the lower bound, i.e. overstate the error (shown without the control
+    // variate for seen lights' edges, which makes the edge pixels exact).
     let seeds = 48;
     let alpha = 1.0 - (1.0 - 1e-3f64).powf(1.0 / 3.0);
     let base = Settings { width: 16, height: 16, target_spp: Some(64), ..Settings::default() };
@@ -135,7 +136,9 @@ fn the_error_estimate_is_honest_for_both_samplers_and_the_old_one_overstates_sob
     let (q, low, high) = ratio_and_bounds(&observed, &predicted, seeds, |_| 63.0, alpha);
     assert!(low < q && q < high, "independent: observed / predicted variance {q:.3}, not in {low:.3}..{high:.3}");
 
-    let (observed, predicted) = spread(base, seeds, readout);
+    // Where Sobol's stratification gains most, along the light's edges, the control
+    // variate for seen lights' edges leaves no variance to overstate: off for this part.
+    let (observed, predicted) = spread(Settings { light_edges: false, ..base }, seeds, readout);
     let (q, low, _) = ratio_and_bounds(&observed, &predicted, seeds, |_| 63.0, alpha);
     assert!(q < low, "Sobol, sample variance: observed / predicted {q:.3}, not below {low:.3}");
 }

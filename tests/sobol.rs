@@ -44,10 +44,12 @@ fn rmse(a: &Snapshot, reference: &Snapshot) -> f64 {
 fn sobol_beats_independent_sampling_at_equal_spp_on_the_cornell_box() {
     // 32x32 pixels at 16 spp, four seeds each, against a 4096-spp Sobol reference. Stated
     // margin: Sobol's RMSE at most 0.6 of independent sampling's, mean over the seeds
-    // (measured: 0.42, i.e. 5.7 times less squared error).
+    // (measured: 0.42, i.e. 5.7 times less squared error). Most of that is the light's
+    // edges, which the control variate for seen lights' edges makes exact for both
+    // samplers (with it the ratio is 0.84): the samplers are compared without it.
     let scene = Arc::new(Scene::build(builtin::cornell_box()));
     let camera = scene.default_camera(1.0);
-    let base = Settings { width: 32, height: 32, ..Settings::default() };
+    let base = Settings { width: 32, height: 32, light_edges: false, ..Settings::default() };
     let reference = Settings { seed: 99, sampler: SamplerKind::Sobol, target_spp: Some(4096), ..base };
     let reference = common::render(&scene, camera, reference, None);
     let mut errors = [0.0f64; 2];

@@ -111,7 +111,10 @@ fn suite(
                 cmd.arg("render");
                 cmd.args(scene.iter());
                 cmd.args(["--spp", &args.spp.to_string(), "--width", &size.to_string(), "--height", &size.to_string()]);
-                cmd.args(["--max-depth", "7", "--threads", threads]);
+                // A fixed workload, whatever the estimator's defaults: 7 bounces, roulette
+                // from 3 (the default the README's suite figures ran with), so that builds
+                // of any age compare.
+                cmd.args(["--max-depth", "7", "--rr-depth", "3", "--threads", threads]);
                 cmd.args(case.options).arg("--out").arg(temp.join("image.exr"));
                 out.push(measure(cmd).map_err(|e| format!("{} with {}: {e}", case.name, build.display()))?);
             }

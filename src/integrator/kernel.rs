@@ -15,6 +15,7 @@
 //! which costs the RGB kernel 0.3% more instructions on the Cornell box.
 
 use super::aov::Aov;
+use super::edges::{EmitterEdges, PixelEdges};
 use super::media::Media;
 use super::nan::{NanCause, check};
 use super::settings::{Integrator, PixelSampling, Settings};
@@ -46,12 +47,16 @@ pub struct View {
     pub rays: RayGenerator,
     /// The volumes that contain the camera (paths start in them).
     pub media: Media,
+    /// The pixels on the outlines of emitters the camera sees (`edges`).
+    pub edges: EmitterEdges,
 }
 
 impl View {
     /// The view of `scene` through `camera` on a `width` x `height` film.
     pub fn new(scene: &Scene, camera: &Camera, width: u32, height: u32) -> Self {
-        Self { rays: camera.rays(width, height), media: Media::containing(scene, camera.position) }
+        let rays = camera.rays(width, height);
+        let edges = EmitterEdges::new(scene, &rays, width, height);
+        Self { rays, media: Media::containing(scene, camera.position), edges }
     }
 }
 
@@ -113,7 +118,7 @@ pub fn sample_pixel(
     index: u64,
     aovs: bool,
 ) -> PathOutput {
-    sample(scene, settings, view, (pixel, &sequence(settings, pixel)), index, aovs)
+    sample(scene, settings, view, (pixel, &sequence(settings, pixel), edges(settings, view, pixel)), index, aovs)
 }
 
 /// Samples `indices` of `pixel`, each handed to `add` with its index: the bits of
@@ -127,8 +132,14 @@ pub fn sample_pixels(
     aovs: bool,
     mut add: impl FnMut(u64, PathOutput),
 ) {
-    let sequence = sequence(settings, pixel);
-    indices.for_each(|i| add(i, sample(scene, settings, view, (pixel, &sequence), i, aovs)));
+    let (sequence, edges) = (sequence(settings, pixel), edges(settings, view, pixel));
+    indices.for_each(|i| add(i, sample(scene, settings, view, (pixel, &sequence, edges), i, aovs)));
+}
+
+/// The outlines of seen emitters partly covering `pixel`, if `settings` ask for their
+/// control variate.
+fn edges<'a>(settings: &Settings, view: &'a View, pixel: UVec2) -> PixelEdges<'a> {
+    if settings.edge_control_variate() { view.edges.pixel(pixel) } else { PixelEdges::NONE }
 }
 
 /// The numbers of `pixel`'s samples for `settings`.
@@ -142,13 +153,13 @@ fn sample(
     scene: &Scene,
     settings: &Settings,
     view: &View,
-    (pixel, sequence): (UVec2, &PixelSequence),
+    (pixel, sequence, edges): (UVec2, &PixelSequence, PixelEdges),
     index: u64,
     aovs: bool,
 ) -> PathOutput {
     let mut sampler = sequence.sampler(index);
-    let film = pixel.as_vec2() + pixel_offset(settings, pixel, index, &mut sampler);
-    let ray = view.rays.ray(film);
+    let offset = pixel_offset(settings, pixel, index, &mut sampler);
+    let ray = view.rays.ray(pixel.as_vec2() + offset);
     check(NanCause::CameraRay, Spectrum::from_rgb(ray.o + ray.d));
     let media = view.media;
     let mut wl = if is_spectral(scene, settings) {
@@ -166,6 +177,9 @@ fn sample(
         (Integrator::Distribution, _) => super::drt::radiance(scene, settings, ray, media, &mut sampler, aovs),
     };
     out.radiance = wl.to_rgb(out.radiance);
+    if !edges.is_empty() {
+        out.radiance += Spectrum::from_rgb(edges.correction(pixel, offset));
+    }
     if let Some(c) = settings.firefly_clamp {
         let m = out.radiance.max_element();
         if m > c {

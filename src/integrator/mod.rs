@@ -1,12 +1,14 @@
 //! Estimators of the rendering equation. The path tracer (`path`) and the distribution
 //! ray tracer (`drt`) are leaves built from shared parts: the pixel sample (`kernel`), the
 //! surface vertex (`vertex`), direction sampling (`scatter`), next-event estimation
-//! (`direct`), light found by BSDF rays (`emission`), MIS weights (`mis`), the volumes a
+//! (`direct`), light found by BSDF rays (`emission`), the control variate for the edges of
+//! emitters the camera sees (`edges`), MIS weights (`mis`), the volumes a
 //! path is in (`media`) and the denoiser's albedo and normal of a sample (`aov`).
 
 mod aov;
 mod direct;
 mod drt;
+mod edges;
 mod emission;
 pub mod kernel;
 pub mod media;

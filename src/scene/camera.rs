@@ -1,7 +1,7 @@
 //! Pinhole perspective camera (glTF convention: looks down local -z, +y up).
 
 use super::geometry::Ray;
-use glam::{Quat, Vec2, Vec3};
+use glam::{DMat3, DVec2, Quat, Vec2, Vec3};
 
 /// A perspective camera placed in the world.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -68,6 +68,24 @@ impl RayGenerator {
         let d = self.forward + self.right * ndc.x - self.up * ndc.y;
         Ray { o: self.origin, d: d.normalize(), tmax: f32::INFINITY }
     }
+
+    /// The film position whose ray (`ray`) passes through `p`, in f64: the inverse of `ray`
+    /// up to its rounding. None for points not in front of the camera.
+    pub fn film_position(&self, p: Vec3) -> Option<DVec2> {
+        let basis = DMat3::from_cols(self.forward.as_dvec3(), self.right.as_dvec3(), -self.up.as_dvec3());
+        // p - origin = c (forward + right x - up y): solve for (c, c x, c y).
+        let [c, cx, cy] = (basis.inverse() * (p.as_dvec3() - self.origin.as_dvec3())).to_array();
+        if c.is_nan() || c <= 0.0 {
+            return None;
+        }
+        let ndc = DVec2::new(cx / c, cy / c);
+        Some((ndc + DVec2::ONE) / (2.0 * self.inv_size.as_dvec2()))
+    }
+
+    /// The camera's position.
+    pub fn origin(&self) -> Vec3 {
+        self.origin
+    }
 }
 
 #[cfg(test)]
@@ -83,6 +101,20 @@ mod tests {
         let top = cam.rays(64, 48).ray(Vec2::new(32.0, 0.0));
         assert!((top.d.angle_between(ray.d) - 0.35).abs() < 1e-4, "half the vertical fov");
         assert!(top.d.y > ray.d.y, "film +y points down");
+    }
+
+    #[test]
+    fn film_position_inverts_the_camera_ray() {
+        let cam = Camera::look_at(Vec3::new(1.0, 2.0, 3.0), Vec3::new(-1.0, 0.5, 0.0), 0.7);
+        let rays = cam.rays(640, 480);
+        for (i, film) in [Vec2::new(0.0, 0.0), Vec2::new(639.75, 12.5), Vec2::new(320.3, 479.9)].into_iter().enumerate()
+        {
+            let ray = rays.ray(film);
+            let p = ray.o + ray.d * (0.5 + 3.0 * i as f32);
+            let back = rays.film_position(p).expect("in front");
+            assert!((back - film.as_dvec2()).length() < 1e-3, "{film} came back as {back}");
+        }
+        assert_eq!(rays.film_position(rays.origin() - cam.rotation * -Vec3::Z), None, "behind the camera");
     }
 
     #[test]
