@@ -51,14 +51,20 @@ impl Blas {
                 padded_box(min, max, size)
             })
             .collect();
-        let (bvh, build_time) = build_bvh(&boxes);
-        let order = &bvh.primitive_indices;
-        let ordered_boxes: Vec<Aabb> = order.iter().map(|&i| boxes[i as usize]).collect();
+        let (mut bvh, build_time) = build_bvh(&boxes);
+        // Each array is dropped as soon as what replaces it exists (obvhs's tree, whose node
+        // array is allocated for as many nodes as triangles, once the wide BVH has what it
+        // needs; each per-triangle array once its reordered copy is made), so that opening a
+        // large mesh holds one copy of each at a time.
+        let ordered_boxes = reorder(&bvh.primitive_indices, boxes);
         let wide = Wide::new(&bvh, &ordered_boxes);
-        let positions: Vec<[Vec3; 3]> = order.iter().map(|&i| positions[i as usize]).collect();
+        drop(ordered_boxes);
+        let order = std::mem::take(&mut bvh.primitive_indices);
+        drop(bvh);
+        let positions = reorder(&order, positions);
         let soa = SoaTriangles::new(&positions);
-        let attrs = order.iter().map(|&i| attrs[i as usize]).collect();
-        let extra = if extra.is_empty() { extra } else { order.iter().map(|&i| extra[i as usize]).collect() };
+        let attrs = reorder(&order, attrs);
+        let extra = if extra.is_empty() { extra } else { reorder(&order, extra) };
         Self { bvh: wide, positions, soa, attrs, extra, bounds, build_time }
     }
 
@@ -252,6 +258,11 @@ pub(super) fn build_bvh(boxes: &[Aabb]) -> (CwBvh, Duration) {
     ReinsertionOptimizer::default().run(&mut bvh2, params.reinsertion_batch_ratio, None);
     let bvh = bvh2_to_cwbvh(&bvh2, params.max_prims_per_leaf.clamp(1, 3), false, false);
     (bvh, start.elapsed())
+}
+
+/// `items` in BVH order (`order` lists the original index of each), the originals dropped.
+fn reorder<T: Copy>(order: &[u32], items: Vec<T>) -> Vec<T> {
+    order.iter().map(|&i| items[i as usize]).collect()
 }
 
 /// The box [min, max] padded by 1e-6 of its coordinates' magnitude plus 1e-7 of `size`, the
