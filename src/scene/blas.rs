@@ -51,16 +51,14 @@ impl Blas {
                 padded_box(min, max, size)
             })
             .collect();
-        let (mut bvh, build_time) = build_bvh(&boxes);
         // Each array is dropped as soon as what replaces it exists (obvhs's tree, whose node
-        // array is allocated for as many nodes as triangles, once the wide BVH has what it
-        // needs; each per-triangle array once its reordered copy is made), so that opening a
-        // large mesh holds one copy of each at a time.
-        let ordered_boxes = reorder(&bvh.primitive_indices, boxes);
-        let wide = Wide::new(&bvh, &ordered_boxes);
-        drop(ordered_boxes);
-        let order = std::mem::take(&mut bvh.primitive_indices);
-        drop(bvh);
+        // array is allocated for as many nodes as triangles, at the end of this block; each
+        // per-triangle array once its reordered copy is made), so that opening a large mesh
+        // holds one copy of each at a time.
+        let (wide, order, build_time) = {
+            let (bvh, build_time) = build_bvh(&boxes);
+            (Wide::new(&bvh, &reorder(&bvh.primitive_indices, boxes)), bvh.primitive_indices, build_time)
+        };
         let positions = reorder(&order, positions);
         let soa = SoaTriangles::new(&positions);
         let attrs = reorder(&order, attrs);
@@ -261,7 +259,7 @@ pub(super) fn build_bvh(boxes: &[Aabb]) -> (CwBvh, Duration) {
 }
 
 /// `items` in BVH order (`order` lists the original index of each), the originals dropped.
-fn reorder<T: Copy>(order: &[u32], items: Vec<T>) -> Vec<T> {
+pub(super) fn reorder<T: Copy>(order: &[u32], items: Vec<T>) -> Vec<T> {
     order.iter().map(|&i| items[i as usize]).collect()
 }
 

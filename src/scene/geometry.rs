@@ -9,7 +9,7 @@ use glam::{Affine3A, Mat3A, Vec2, Vec3, Vec4, Vec4Swizzles};
 use std::cell::Cell;
 use std::time::Duration;
 
-use super::blas::{Blas, build_bvh, padded_box};
+use super::blas::{Blas, build_bvh, padded_box, reorder};
 use super::wide::{SlabRay, Wide, bits};
 use crate::math::float::gamma;
 
@@ -136,7 +136,7 @@ impl Geometry {
     pub fn build_instanced(world: Triangles, meshes: Vec<Triangles>, placements: &[(u32, Affine3A)]) -> Self {
         let world = Blas::build(world);
         let meshes: Vec<Blas> = meshes.into_iter().map(Blas::build).collect();
-        let mut instances: Vec<Instance> = placements
+        let instances: Vec<Instance> = placements
             .iter()
             .filter(|(m, t)| meshes.get(*m as usize).is_some_and(|b| !b.is_empty()) && invertible(t))
             .map(|&(mesh, to_world)| Instance {
@@ -153,9 +153,8 @@ impl Geometry {
         let size = if lo.cmple(hi).all() { (hi - lo).length() } else { 1.0 };
         let padded: Vec<_> = boxes.iter().map(|&(lo, hi)| padded_box(lo, hi, size)).collect();
         let (cwbvh, tlas_time) = build_bvh(&padded);
-        instances = cwbvh.primitive_indices.iter().map(|&i| instances[i as usize]).collect();
-        let ordered: Vec<_> = cwbvh.primitive_indices.iter().map(|&i| padded[i as usize]).collect();
-        let tlas = Wide::new(&cwbvh, &ordered);
+        let mut instances = reorder(&cwbvh.primitive_indices, instances);
+        let tlas = Wide::new(&cwbvh, &reorder(&cwbvh.primitive_indices, padded));
         let mut len = world.len();
         for i in &mut instances {
             i.first = u32::try_from(len).expect("at most u32::MAX placed triangles");
