@@ -2,12 +2,16 @@
 """Ray queries alone, Lucent's BVH against Embree's (through Mitsuba 3's llvm_ad_rgb), on the
 same rays in the Cornell box: how much of Mitsuba's lead is traversal.
 
-  python docs/peers/rays.py gen OUT_DIR            # writes camera.bin, bounce.bin, shadow.bin
-  $PEERS_VENV/bin/python docs/peers/rays.py mitsuba OUT_DIR [--runs 5] [--threads 2]
+  $PEERS_VENV/bin/python docs/peers/rays.py gen OUT_DIR   # camera.bin, bounce.bin, shadow.bin
   cargo run --release --example rays -- OUT_DIR [--runs 5] [--threads 2]
+  $PEERS_VENV/bin/python docs/peers/rays.py mitsuba OUT_DIR [--runs 5] [--threads 2]
+  $PEERS_VENV/bin/python docs/peers/rays.py compare OUT_DIR
 
-Each .bin (and .centred.bin, the same rays in Lucent's centred frame) holds little-endian float32 records (ox, oy, oz, dx, dy, dz, tmax), one per ray,
-from a fixed seed:
+$PEERS_VENV is the Python that ../shared/peers/setup.sh sets up (numpy, Mitsuba 3); the
+Mitsuba scene is read from $PEERS, by default the shared/peers folder beside the repository.
+
+Each .bin (and .centred.bin, the same rays in Lucent's centred frame) holds little-endian
+float32 records (ox, oy, oz, dx, dy, dz, tmax), one per ray, from a fixed seed:
 - camera: 2^20 rays of the box's camera through uniformly jittered points of a 256x256
   film (coherent, as the first segment of every path);
 - bounce: 2^20 rays from points uniform in the box's inside, directions uniform on the
