@@ -7,6 +7,7 @@
 //!     cargo run --release --example rays -- DIR [--runs 5] [--threads 2] [SCENE.gltf]
 
 use glam::Vec3;
+use lucent::film::output::replace_file;
 use lucent::open::OpenOptions;
 use lucent::scene::{Scene, geometry::Ray};
 use rayon::prelude::*;
@@ -44,10 +45,10 @@ enum Answers {
 }
 
 impl Answers {
-    fn bytes(&self) -> Vec<u8> {
+    fn into_bytes(self) -> Vec<u8> {
         match self {
             Answers::Distances(t) => t.iter().flat_map(|t| t.to_le_bytes()).collect(),
-            Answers::Blocked(b) => b.clone(),
+            Answers::Blocked(b) => b,
         }
     }
 }
@@ -104,7 +105,8 @@ fn run() -> Result<(), String> {
         times.sort_by(f64::total_cmp);
         let ns = times[times.len() / 2] * threads as f64 / rays.len() as f64 * 1e9;
         let out = dir.join(format!("{name}.lucent"));
-        std::fs::write(&out, last.expect("at least one run").bytes()).map_err(|e| format!("{}: {e}", out.display()))?;
+        let bytes = last.expect("at least one run").into_bytes();
+        replace_file(&out, |tmp| std::fs::write(tmp, &bytes)).map_err(|e| e.to_string())?;
         writeln!(
             std::io::stdout(),
             "{name}: {ns:.1} ns machine time per ray (Lucent, {threads} threads, median of {runs})"

@@ -123,7 +123,9 @@ def mitsuba(out, runs, threads):
         answer = np.array(answer, dtype=np.float32 if name != "shadow" else np.uint8)
         if name != "shadow":
             answer = np.where(np.isfinite(answer) & (answer < 1e30), answer, np.inf).astype(np.float32)
-        answer.tofile(os.path.join(out, f"{name}.mitsuba"))
+        path = os.path.join(out, f"{name}.mitsuba")
+        answer.tofile(path + ".tmp")
+        os.replace(path + ".tmp", path)
         print(f"{name}: {results[name]:.1f} ns machine time per ray (Embree via Mitsuba "
               f"{mi.__version__} llvm_ad_rgb, {threads} threads, median of {runs})")
     print(json.dumps({"renderer": "mitsuba", "ns_per_ray": results}))
