@@ -9,19 +9,55 @@ use crate::math::{distribution::AliasTable, luminance, warp};
 use crate::spectrum::Spectrum;
 use glam::{DMat4, Vec2, Vec3};
 
-/// A spot light's cone: the glTF angles from its axis, and their cosines, which the falloff uses.
+/// A spot light's cone: the glTF angles from its axis, and one minus their cosines, in
+/// which the falloff is computed (1 - cos keeps its precision for cones of a fraction of a
+/// degree, where cos itself rounds to within a few units of 1).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Cone {
     inner: f32,
     outer: f32,
-    cos_inner: f32,
-    cos_outer: f32,
+    vers_inner: f32,
+    vers_outer: f32,
+}
+
+/// 1 - cos(theta) = 2 sin^2(theta / 2), without the cancellation of the first form.
+fn versine(theta: f32) -> f32 {
+    2.0 * (0.5 * theta).sin().powi(2)
+}
+
+/// 1 - cos of the angle between unit vectors `w` and `axis`: sin^2 / (1 + cos) on the
+/// axis's side, where 1 - w.axis would cancel.
+fn versine_between(w: Vec3, axis: Vec3) -> f32 {
+    let cos = w.dot(axis);
+    if cos > 0.0 { w.cross(axis).length_squared() / (1.0 + cos) } else { 1.0 - cos }
 }
 
 impl Cone {
     /// The cone of innerConeAngle `inner` and outerConeAngle `outer` (radians).
     pub fn new(inner: f32, outer: f32) -> Self {
-        Self { inner, outer, cos_inner: inner.cos(), cos_outer: outer.cos() }
+        Self { inner, outer, vers_inner: versine(inner), vers_outer: versine(outer) }
+    }
+
+    /// KHR_lights_punctual's falloff towards a direction `vers` = 1 - cos(angle) off the
+    /// axis: 1 inside the inner cone, 0 outside the outer one, and between them the square
+    /// of the linear ramp in cos (the extension's smooth falloff). Equal angles make a hard
+    /// edge; no floor on the ramp's width, so a narrow cone keeps its full intensity inside.
+    pub fn falloff(&self, vers: f32) -> f32 {
+        if vers <= self.vers_inner {
+            1.0
+        } else if vers >= self.vers_outer {
+            0.0
+        } else {
+            let t = (self.vers_outer - vers) / (self.vers_outer - self.vers_inner);
+            t * t
+        }
+    }
+
+    /// The falloff's integral over the sphere of directions (steradians): 2 pi times
+    /// (1 - cos inner) for the full inner cone, plus a third of the ring's (cos inner - cos
+    /// outer), the integral of t^2 over the ramp.
+    pub fn solid_angle(&self) -> f32 {
+        2.0 * std::f32::consts::PI * (self.vers_inner + (self.vers_outer - self.vers_inner) / 3.0)
     }
 
     /// innerConeAngle: full intensity inside it (radians).
@@ -88,15 +124,11 @@ impl PunctualLight {
     }
 
     /// Radiant intensity (or irradiance, for directional) towards unit direction `w`
-    /// leaving the light. Spot falloff follows the KHR_lights_punctual reference formula.
+    /// leaving the light, with a spot's cone falloff (`Cone::falloff`).
     pub fn intensity_towards(&self, w: Vec3) -> Spectrum {
         let intensity = Spectrum::from_illuminant_rgb(self.emitted());
         match self.kind {
-            PunctualKind::Spot(Cone { cos_inner, cos_outer, .. }) => {
-                let scale = 1.0 / (cos_inner - cos_outer).max(1e-4);
-                let a = ((w.dot(self.direction) - cos_outer) * scale).clamp(0.0, 1.0);
-                intensity * a * a
-            }
+            PunctualKind::Spot(cone) => intensity * cone.falloff(versine_between(w, self.direction)),
             _ => intensity,
         }
     }
@@ -114,9 +146,7 @@ impl PunctualLight {
         let i = luminance(self.emitted());
         match self.kind {
             PunctualKind::Point => 4.0 * std::f32::consts::PI * i,
-            PunctualKind::Spot(Cone { cos_inner, cos_outer, .. }) => {
-                2.0 * std::f32::consts::PI * i * (1.0 - 0.5 * (cos_inner + cos_outer))
-            }
+            PunctualKind::Spot(cone) => cone.solid_angle() * i,
             PunctualKind::Directional => std::f32::consts::PI * scene_radius * scene_radius * i,
         }
     }
@@ -392,6 +422,66 @@ mod tests {
         assert_eq!(l.intensity_towards(Vec3::X), Spectrum::ZERO);
         let mid = l.intensity_towards(Vec3::new(0.0, (1.0f32 - 0.85 * 0.85).sqrt(), -0.85)).to_rgb().x;
         assert!((mid - 0.25).abs() < 1e-3);
+    }
+
+    fn spot(inner: f32, outer: f32) -> PunctualLight {
+        PunctualLight {
+            name: "s".into(),
+            kind: PunctualKind::Spot(Cone::new(inner, outer)),
+            position: Vec3::ZERO,
+            direction: -Vec3::Z,
+            color: Vec3::ONE,
+            intensity: 1.0,
+            range: None,
+            source: None,
+        }
+    }
+
+    /// The direction `theta` off the axis -z.
+    fn off_axis(theta: f64) -> Vec3 {
+        Vec3::new(theta.sin() as f32, 0.0, -theta.cos() as f32)
+    }
+
+    #[test]
+    fn narrow_spots_are_full_inside_their_inner_cone_and_equal_angles_cut_hard() {
+        let degree = 1f64.to_radians();
+        for (inner, outer) in [(0.003, 0.004), (0.1 * degree, 0.2 * degree), (0.0, 1e-4), (0.3, 0.30001)] {
+            let l = spot(inner as f32, outer as f32);
+            for f in [0.0, 0.5, 0.99] {
+                assert_eq!(l.intensity_towards(off_axis(f * inner)), Spectrum::ONE, "{inner}..{outer} at {f} x inner");
+            }
+            // Half-way in cos between the cones: (1/2)^2 of the intensity.
+            let mid = (0.5 * (inner.cos() + outer.cos())).acos();
+            let at_mid = l.intensity_towards(off_axis(mid)).to_rgb().x;
+            assert!((at_mid - 0.25).abs() < 0.02, "{inner}..{outer}: {at_mid} half-way");
+            assert_eq!(l.intensity_towards(off_axis(outer * 1.01)), Spectrum::ZERO);
+        }
+        let hard = spot(0.01, 0.01);
+        assert_eq!(hard.intensity_towards(off_axis(0.00999)), Spectrum::ONE);
+        assert_eq!(hard.intensity_towards(off_axis(0.01001)), Spectrum::ZERO);
+    }
+
+    #[test]
+    fn a_spots_power_is_the_integral_of_its_falloff() {
+        let degree = 1f64.to_radians();
+        for (inner, outer) in
+            [(0.003, 0.004), (0.1 * degree, 0.2 * degree), (0.0, 0.5), (0.4, 0.4), (0.2, 1.5), (1.0, 3.0)]
+        {
+            let l = spot(inner as f32, outer as f32);
+            // Midpoint rule in theta over [0, outer]; the azimuth is uniform.
+            let n = 200_000;
+            let dt = outer / n as f64;
+            let integral: f64 = (0..n)
+                .map(|k| {
+                    let theta = (k as f64 + 0.5) * dt;
+                    l.intensity_towards(off_axis(theta)).to_rgb().x as f64 * theta.sin() * dt
+                })
+                .sum::<f64>()
+                * 2.0
+                * std::f64::consts::PI;
+            let power = l.power(1.0) as f64;
+            assert!((power / integral - 1.0).abs() < 1e-3, "{inner}..{outer}: power {power:e}, integral {integral:e}");
+        }
     }
 
     #[test]
