@@ -119,6 +119,68 @@ fn reflected_rays_never_re_hit_an_instanced_sphere_at_any_scale_and_far_from_the
     }
 }
 
+/// A square of side `2 size` (two triangles) in the coordinate plane through the origin
+/// normal to axis `axis`, facing its positive side, and `placement` of it (None: flattened).
+fn square_through_the_origin(axis: usize, size: f32, placement: Option<Affine3A>) -> Scene {
+    let corner = |x: f32, y: f32| {
+        let mut c = [0.0; 3];
+        (c[(axis + 1) % 3], c[(axis + 2) % 3]) = (x * size, y * size);
+        Vec3::from_array(c)
+    };
+    let positions = vec![corner(-1.0, -1.0), corner(1.0, -1.0), corner(1.0, 1.0), corner(-1.0, 1.0)];
+    let square = MeshDesc {
+        name: "square".into(),
+        positions,
+        indices: vec![0, 1, 2, 0, 2, 3],
+        instances: placement.into_iter().collect(),
+        ..MeshDesc::default()
+    };
+    sphere_scene(square)
+}
+
+#[test]
+fn reflected_rays_never_re_hit_a_plane_through_the_origin() {
+    // Points of a coordinate plane through the origin have no rounding error along its
+    // normal, so their ray origins get no offset: only the triangle test's bound on the
+    // error of a hit's distance keeps reflections from finding the plane again.
+    let mut s = Sampler::new(UVec2::new(3, 4), 0, 11);
+    for axis in 0..3 {
+        // Instanced, turned about the plane's normal: the plane stays where it is.
+        let turn = Affine3A::from_axis_angle(Vec3::AXES[axis], 0.7);
+        for size in [1e-3f32, 1.0, 1e4] {
+            for placement in [None, Some(turn)] {
+                let scene = square_through_the_origin(axis, size, placement);
+                let (mut hits, mut self_hits) = (0, 0);
+                for _ in 0..200_000 {
+                    // From above the square, towards a point on it (mostly near the origin,
+                    // where the diagonal both triangles share runs).
+                    let mut target = [0.0f32; 3];
+                    let r = size * s.next_1d().powi(4);
+                    let phi = 2.0 * PI * s.next_1d();
+                    (target[(axis + 1) % 3], target[(axis + 2) % 3]) = (r * phi.cos(), r * phi.sin());
+                    let d = uniform_hemisphere(s.next_2d());
+                    let mut down = [0.0f32; 3];
+                    (down[(axis + 1) % 3], down[(axis + 2) % 3], down[axis]) = (d.x, d.y, -d.z);
+                    let d = Vec3::from_array(down);
+                    let target = Vec3::from_array(target);
+                    let ray = Ray { o: target - d * size, d, tmax: f32::INFINITY };
+                    let Some(hit) = scene.geometry.intersect(&ray) else { continue };
+                    hits += 1;
+                    let surface = scene.surface(&hit);
+                    let n = surface.ng;
+                    let r = ray.d - 2.0 * ray.d.dot(n) * n;
+                    let origin = lucent::math::float::offset_ray_origin(surface.p, surface.p_error, n, r);
+                    self_hits +=
+                        scene.geometry.intersect(&Ray { o: origin, d: r, tmax: f32::INFINITY }).is_some() as u32;
+                }
+                let label = format!("axis {axis}, size {size}, instanced {}", placement.is_some());
+                assert!(hits > 190_000, "{label}: {hits} hits");
+                assert_eq!(self_hits, 0, "{label}: reflections re-hit the plane they left ({self_hits} of {hits})");
+            }
+        }
+    }
+}
+
 /// Rays aimed at the unit sphere placed by `placement` hit it, and their reflections,
 /// leaving from the offset hit point, never hit it again.
 fn reflections_leave(scene: &Scene, placement: Affine3A) {

@@ -493,11 +493,19 @@ impl Scene {
         })
     }
 
-    /// The point of triangle `tri` (vertices `p`) at barycentrics `b`, and its error bound.
+    /// The point of triangle `tri` (vertices `p`) at barycentrics `b`, and its error bound:
+    /// the interpolation's and the placement's (pbrt-v4 section 6.8), and on every axis
+    /// gamma(16) of the triangle's extent around the point, for the triangle test's own
+    /// rounding of a ray that leaves it. The interpolation's bound vanishes along the normal
+    /// of a coordinate plane through the origin, where reflections then started on the plane
+    /// and a quarter of them found it again; its test in tests/robustness.rs needs 1.5 eps of
+    /// the extent, and this is five times that.
     #[inline(always)]
     fn position_on(&self, tri: u32, b: [f32; 3], p: &[Vec3; 3]) -> (Vec3, Vec3) {
         let point = p[0] * b[0] + p[1] * b[1] + p[2] * b[2];
-        (point, interpolation_error(b, *p) + self.geometry.placement_error(tri, b, point))
+        let extent = (p[0] - point).abs().max((p[1] - point).abs()).max((p[2] - point).abs()).max_element();
+        let test = Vec3::splat(gamma(16) * extent);
+        (point, interpolation_error(b, *p) + self.geometry.placement_error(tri, b, point) + test)
     }
 
     /// `light_point` given the triangle's positions and attributes.
