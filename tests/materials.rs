@@ -1,16 +1,19 @@
 //! Materials in whole scenes: the Cornell glass scene (no NaN, a caustic under the glass
 //! sphere, the walls mirrored in the metal sphere), Beer-Lambert attenuation against
-//! thickness, alpha MASK and BLEND, single-sided culling, normal maps and clearcoat normal maps.
+//! thickness, alpha MASK and BLEND, single-sided culling, normal maps and clearcoat normal maps,
+//! KHR_materials_specular's colour (factors above 1, textures) and minified textures.
 
 mod common;
 
-use glam::Vec3;
+use glam::{DVec3, Vec2, Vec3};
 use lucent::integrator::Settings;
 use lucent::loader::gltf;
+use lucent::scene::environment::{EnvSettings, Environment};
 use lucent::scene::{
     MeshDesc, Scene, SceneDesc,
     camera::Camera,
-    material::{AlphaMode, Material},
+    material::{AlphaMode, Material, TexRef},
+    texture::{Image, Texels, Texture, Wrap},
 };
 use std::sync::Arc;
 
@@ -227,4 +230,141 @@ fn clearcoat_normal_maps_tilt_the_coat_alone_and_a_flat_one_changes_nothing() {
     let under = bsdf_with_texel(&mapped_base, ns, flat);
     let frame = lucent::math::frame::Frame::from_normal(ns);
     assert!((coat_normal(&under) - frame.to_local(Vec3::Z)).length() < 1e-5, "{}", coat_normal(&under));
+}
+
+/// A scene lit by a uniform sky of radiance 1 and nothing else.
+fn under_white_sky(desc: SceneDesc) -> Arc<Scene> {
+    let sky = Environment::load(EnvSettings { background: Vec3::ONE, ..EnvSettings::default() }).unwrap();
+    Arc::new(Scene::build(desc).with_environment(Some(sky)))
+}
+
+/// The mean colour of an 8x8 image from `camera` at `spp`, and the standard error of each
+/// channel's mean (from the render's per-pixel variances).
+fn image_mean(scene: &Arc<Scene>, camera: Camera, spp: u32) -> (DVec3, DVec3) {
+    let settings = Settings { width: 8, height: 8, target_spp: Some(spp), ..Settings::default() };
+    let snap = common::render(scene, camera, settings, None);
+    assert_eq!(snap.rejected, 0, "NaN/Inf samples");
+    let n = snap.mean.len() as f64;
+    let mean = snap.mean.iter().map(|c| c.as_dvec3()).sum::<DVec3>() / n;
+    let se = (snap.variance.iter().map(|v| v.as_dvec3()).sum::<DVec3>()).powf(0.5) / n;
+    (mean, se)
+}
+
+#[test]
+fn specular_colour_factors_above_one_raise_f0_as_khr_materials_specular_says() {
+    // SpecularTest's last row: black smooth dielectrics (IOR 1.5, F0 0.04) whose
+    // specularColorFactor is 0, 1.184, 5.441, 13.276 and 25. The extension clamps only the
+    // product: F0 = min(0.04 x factor, 1). Seen head-on under a white sky, a sphere's front
+    // reflects the sky behind the camera with F0 (Schlick's term is 1e-12 of it there).
+    let desc = gltf::load(&common::asset("SpecularTest/glTF-Binary/SpecularTest.glb")).unwrap();
+    let hdr: Vec<(u32, f32)> = (desc.materials.iter().enumerate())
+        .filter(|(_, m)| m.name.starts_with("M7."))
+        .map(|(i, m)| (i as u32, m.specular_color.x))
+        .collect();
+    assert_eq!(hdr.len(), 5, "the five HDR spheres");
+    let bounds: Vec<(Vec3, Vec3)> = hdr
+        .iter()
+        .map(|&(material, _)| {
+            let points = desc.meshes.iter().filter(|m| m.material == material).flat_map(|m| m.positions.iter());
+            points.fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &p| (lo.min(p), hi.max(p)))
+        })
+        .collect();
+    let scene = under_white_sky(desc);
+    for (&(_, factor), &(lo, hi)) in hdr.iter().zip(&bounds) {
+        let (centre, radius) = ((lo + hi) * 0.5, (hi - lo).x * 0.5);
+        let camera = Camera::look_at(centre + Vec3::Z * 4.0 * radius, centre, 0.01);
+        let (mean, se) = image_mean(&scene, camera, 4);
+        let want = (0.04 * factor as f64).min(1.0);
+        assert!(se.max_element() < 1e-6, "a delta reflection of a uniform sky is noiseless: {se}");
+        assert!((mean.x - want).abs() < 1e-3 * want.max(0.04), "factor {factor}: F0 {:.4}, want {want:.4}", mean.x);
+    }
+}
+
+/// The unit square at z = 0 facing +z, with texture coordinates over it.
+fn square(material: u32) -> MeshDesc {
+    MeshDesc {
+        name: "square".into(),
+        positions: vec![
+            Vec3::new(-0.5, -0.5, 0.0),
+            Vec3::new(0.5, -0.5, 0.0),
+            Vec3::new(0.5, 0.5, 0.0),
+            Vec3::new(-0.5, 0.5, 0.0),
+        ],
+        uvs: Some(vec![Vec2::new(0.0, 1.0), Vec2::new(1.0, 1.0), Vec2::new(1.0, 0.0), Vec2::new(0.0, 0.0)]),
+        indices: vec![0, 1, 2, 0, 2, 3],
+        material,
+        ..MeshDesc::default()
+    }
+}
+
+/// The square alone under a white sky, with `material` and the RGBA8 image `texels` (`side`
+/// texels square, bilinear, repeating) as texture 0.
+fn textured_square(material: Material, side: u32, texels: Vec<[u8; 4]>) -> Arc<Scene> {
+    under_white_sky(SceneDesc {
+        name: "square".into(),
+        meshes: vec![square(0)],
+        materials: vec![material],
+        textures: vec![Texture { name: "t".into(), image: 0, wrap: [Wrap::Repeat; 2], nearest: false }],
+        images: vec![Image { width: side, height: side, texels: Texels::Bytes(texels) }],
+        ..SceneDesc::default()
+    })
+}
+
+/// The sRGB decoding of an 8-bit code (IEC 61966-2-1).
+fn srgb(code: u8) -> f64 {
+    let c = code as f64 / 255.0;
+    if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) }
+}
+
+#[test]
+fn a_specular_colour_texture_tints_f0_as_the_same_factor_does() {
+    // A black smooth dielectric square seen head-on under a white sky reflects F0 =
+    // min(0.04 x specularColorFactor x specularColorTexture, 1): the texture's sRGB colour,
+    // decoded, acts exactly as a factor of that value, above 1 too once multiplied.
+    let code = [200u8, 150, 30, 255];
+    let texel = DVec3::new(srgb(code[0]), srgb(code[1]), srgb(code[2]));
+    let black = Material { base_color: Vec3::ZERO, metallic: 0.0, roughness: 0.0, ..Material::default() };
+    let camera = Camera::look_at(Vec3::new(0.0, 0.0, 2.0), Vec3::ZERO, 0.05);
+    for factor in [1.0f32, 12.0] {
+        let textured = Material {
+            specular_color: Vec3::splat(factor),
+            specular_color_tex: Some(TexRef::plain(0)),
+            ..black.clone()
+        };
+        let plain = Material { specular_color: (texel * factor as f64).as_vec3(), ..black.clone() };
+        let (with_texture, _) = image_mean(&textured_square(textured, 1, vec![code]), camera, 4);
+        let (with_factor, _) = image_mean(&textured_square(plain, 1, vec![code]), camera, 4);
+        let want = (texel * 0.04 * factor as f64).min(DVec3::ONE);
+        for c in 0..3 {
+            assert!(
+                (with_texture[c] - want[c]).abs() < 1e-5,
+                "factor {factor}, channel {c}: textured {with_texture}, want {want}"
+            );
+            assert!(
+                (with_factor[c] - want[c]).abs() < 1e-5,
+                "factor {factor}, channel {c}: plain {with_factor}, want {want}"
+            );
+        }
+    }
+}
+
+#[test]
+fn a_minified_black_and_white_texture_averages_to_its_linear_mean() {
+    // A 256 x 256 checkerboard of black and white texels (sRGB codes 0 and 255) on a Lambertian
+    // square seen by 8 x 8 pixels: each pixel covers 32 x 32 texels, and under a white sky
+    // the radiance is the albedo, so the picture must average the texels' linear values,
+    // 1/2 (averaging the codes and then decoding would give 0.214).
+    let side = 256;
+    let texels =
+        (0..side * side).map(|i| if (i % side + i / side) % 2 == 0 { [0, 0, 0, 255] } else { [255; 4] }).collect();
+    let material = Material { base_color_tex: Some(TexRef::plain(0)), ..Material::lambert("checker", Vec3::ONE) };
+    let scene = textured_square(material, side, texels);
+    // The frame lies inside the square.
+    let camera = Camera::look_at(Vec3::new(0.0, 0.0, 2.0), Vec3::ZERO, 0.4);
+    let (mean, se) = image_mean(&scene, camera, 64);
+    let z_max = common::sidak_z(1e-3, 3);
+    for c in 0..3 {
+        let z = (mean[c] - 0.5) / se[c];
+        assert!(z.abs() < z_max, "channel {c}: {:.4} +- {:.4}, want 0.5 (z = {z:.1})", mean[c], se[c]);
+    }
 }

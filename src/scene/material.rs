@@ -488,9 +488,8 @@ impl Material {
             metallic *= mr.z;
         }
         let specular = self.specular * lookup(self.specular_tex, ColorSpace::Linear).map_or(1.0, |t| t.w);
-        let specular_tint = (self.specular_color
-            * lookup(self.specular_color_tex, ColorSpace::Srgb).map_or(Vec3::ONE, |t| t.xyz()))
-        .min(Vec3::ONE);
+        let specular_color =
+            self.specular_color * lookup(self.specular_color_tex, ColorSpace::Srgb).map_or(Vec3::ONE, |t| t.xyz());
         let transmission = self.transmission * lookup(self.transmission_tex, ColorSpace::Linear).map_or(1.0, |t| t.x);
         let clearcoat = self.clearcoat * lookup(self.clearcoat_tex, ColorSpace::Linear).map_or(1.0, |t| t.x);
         let clearcoat_roughness =
@@ -539,9 +538,13 @@ impl Material {
             metallic: metallic.clamp(0.0, 1.0),
             alpha: alpha(roughness),
             anisotropy: anisotropy.clamp(0.0, 1.0),
-            dielectric_f0: Spectrum::from_rgb((f0 * specular_tint).min(Vec3::ONE)),
+            // KHR_materials_specular clamps only the product: a colour factor above 1 raises
+            // F0 up to 1 (a factor of 25 on F0 = 0.04 makes a mirror).
+            dielectric_f0: Spectrum::from_rgb((f0 * specular_color).min(Vec3::ONE)),
             specular: specular.clamp(0.0, 1.0),
-            specular_tint: Spectrum::from_rgb(specular_tint),
+            // The refracting interface's reflection, whose Fresnel term is exact, keeps a tint
+            // of at most 1, so that it never reflects more than arrives.
+            specular_tint: Spectrum::from_rgb(specular_color.min(Vec3::ONE)),
             transmission: transmission.clamp(0.0, 1.0),
             eta,
             thin: self.volume.is_none(),
