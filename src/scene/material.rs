@@ -575,7 +575,7 @@ impl Material {
     ) -> Vec3 {
         let scale = Vec3::new(self.clearcoat_normal_scale, self.clearcoat_normal_scale, 1.0);
         let world = match texel {
-            Some(t) => super::normal_mapped(normal, tangent, (t.xyz() * 2.0 - 1.0) * scale),
+            Some(t) => super::surface::normal_mapped(normal, tangent, (t.xyz() * 2.0 - 1.0) * scale),
             None => normal,
         };
         let local = frame.to_local(if front { world } else { -world }).normalize_or_zero();

@@ -1,10 +1,11 @@
-//! Light from infinitely far away: an equirectangular HDR map (.hdr or .exr, or the built-in
-//! sky) with intensity and rotation, or a uniform background colour. Map directions are
-//! importance-sampled by a 2D piecewise-constant density over the texels, in proportion to
-//! radiance x sin(theta).
+//! The environment light, from infinitely far away: an equirectangular HDR map (.hdr or
+//! .exr, or the built-in sky) with intensity and rotation, or a uniform background colour.
+//! Map directions are importance-sampled by a 2D piecewise-constant density over the
+//! texels, in proportion to radiance x sin(theta).
 
-use super::rgbe::Texels;
+use super::{LightSample, LightTarget};
 use crate::math::{distribution::Distribution2D, luminance, warp, wrap_index};
+use crate::scene::rgbe::Texels;
 use crate::spectrum::Spectrum;
 use glam::{Vec2, Vec3};
 use serde::{Deserialize, Serialize};
@@ -63,7 +64,7 @@ impl EnvSettings {
 pub const BUILT_IN: &str = "built-in";
 
 /// The built-in sky: Poly Haven's venice_sunset, 1024 x 512 (CC0; see assets/README.md).
-const BUILT_IN_HDR: &[u8] = include_bytes!("../../assets/venice_sunset_1k.hdr");
+const BUILT_IN_HDR: &[u8] = include_bytes!("../../../assets/venice_sunset_1k.hdr");
 
 /// A loaded equirectangular map with its sampling density.
 pub struct EnvMap {
@@ -243,6 +244,16 @@ impl Environment {
         let d = self.to_world(local);
         let radiance = Spectrum::from_illuminant_rgb(map.lookup(uv) * self.settings.intensity);
         Some((d, radiance, pdf_uv / (2.0 * PI * PI * sin_theta)))
+    }
+
+    /// `sample` as a light sample, with the probability `pmf` of having chosen the
+    /// environment folded into the density; None where it carries no light.
+    pub fn sample_li(&self, u: Vec2, pmf: f32) -> Option<LightSample> {
+        let (wi, radiance, pdf) = self.sample(u)?;
+        if radiance.is_black() {
+            return None;
+        }
+        Some(LightSample { wi, radiance, pdf: pmf * pdf, target: LightTarget::Infinite, is_delta: false })
     }
 
     /// Solid-angle density with which `sample` returns unit world direction `d`.
