@@ -251,12 +251,26 @@ impl<P: ParamType> ParamType for Option<P> {
     }
 }
 
-/// Implements `ParamType` for a fieldless enum through its `choices()` list, whose order
-/// matches the variants': `choice_enum!(Type: Variant = "name", ...)` also defines
-/// `Type::CHOICES`.
+/// Declares a fieldless enum of options from one list, each variant with its name and the
+/// one line that is both its doc comment and its help in the parameter tables, and
+/// implements `ParamType` for it: `choice_enum! { #[attrs] pub enum Type { #[default]
+/// Variant = "name": "help", ... } }` also defines `Type::CHOICES` (in the variants'
+/// order) and `Type::name`.
 #[macro_export]
 macro_rules! choice_enum {
-    ($ty:ty { $($variant:ident = $name:literal: $help:literal),+ $(,)? }) => {
+    (
+        $(#[$meta:meta])*
+        pub enum $ty:ident {
+            $( $(#[$vmeta:meta])* $variant:ident = $name:literal: $help:literal ),+ $(,)?
+        }
+    ) => {
+        $(#[$meta])*
+        #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+        #[serde(rename_all = "kebab-case")]
+        pub enum $ty {
+            $( #[doc = $help] $(#[$vmeta])* $variant ),+
+        }
+
         impl $ty {
             /// The options, as the parameter tables list them.
             pub const CHOICES: &'static [$crate::params::Choice] =
@@ -334,12 +348,14 @@ macro_rules! params {
 mod tests {
     use super::*;
 
-    #[derive(Clone, Copy, Debug, PartialEq)]
-    pub enum Colour {
-        Red,
-        Blue,
+    choice_enum! {
+        /// A colour.
+        pub enum Colour {
+            #[default]
+            Red = "red": "warm",
+            Blue = "blue": "cold",
+        }
     }
-    choice_enum!(Colour { Red = "red": "warm", Blue = "blue": "cold" });
 
     params! {
         #[derive(Clone, Copy, Debug, PartialEq)]

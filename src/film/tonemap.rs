@@ -5,18 +5,18 @@ use crate::params::Domain;
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
-/// Tone curves mapping scene-linear radiance to display-linear [0, 1].
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum Tonemap {
-    /// Clamp to [0, 1]: radiometrically faithful below 1, clips highlights.
-    Linear,
-    /// Narkowicz's fit of the ACES filmic curve (2015).
-    Aces,
-    /// Khronos PBR Neutral (2024): keeps base colours faithful, compresses highlights
-    /// instead of clipping them. The default, as in the Khronos glTF Sample Viewer.
-    #[default]
-    PbrNeutral,
+crate::choice_enum! {
+    /// Tone curves mapping scene-linear radiance to display-linear [0, 1]: a clamp
+    /// (radiometrically faithful below 1, clipping highlights), Narkowicz's fit of the ACES
+    /// filmic curve (2015), or Khronos PBR Neutral (2024), which keeps base colours faithful
+    /// and compresses highlights instead of clipping them, the default as in the Khronos
+    /// glTF Sample Viewer.
+    pub enum Tonemap {
+        Linear = "linear": "clamp to [0, 1]",
+        Aces = "aces": "Narkowicz's fit of the ACES filmic curve",
+        #[default]
+        PbrNeutral = "pbr-neutral": "Khronos PBR Neutral",
+    }
 }
 
 impl Tonemap {
@@ -61,12 +61,6 @@ const SRGB_LUT_SIZE: usize = 4096;
 /// lookup instead of a `powf` per channel (within one code of the exact encoding).
 static SRGB_LUT: std::sync::LazyLock<Vec<u8>> = std::sync::LazyLock::new(|| {
     (0..SRGB_LUT_SIZE).map(|i| (linear_to_srgb(i as f32 / (SRGB_LUT_SIZE - 1) as f32) * 255.0 + 0.5) as u8).collect()
-});
-
-crate::choice_enum!(Tonemap {
-    Linear = "linear": "clamp to [0, 1]",
-    Aces = "aces": "Narkowicz's fit of the ACES filmic curve",
-    PbrNeutral = "pbr-neutral": "Khronos PBR Neutral",
 });
 
 crate::params! {

@@ -7,105 +7,66 @@ use crate::params::{Domain, Param};
 use serde::{Deserialize, Serialize};
 use std::fmt;
 
-/// How camera rays sample the pixel's area.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum PixelSampling {
-    /// Independent uniform positions in the pixel (Monte Carlo).
-    #[default]
-    Random,
-    /// Jittered strata: each round of `strata`^2 samples puts one sample in every stratum.
-    /// Every single sample is still uniform over the pixel, so partial rounds stay unbiased.
-    Stratified,
-    /// The textbook's uniform sub-pixel grid (section 10.3, eqs. 4 to 6), evaluated at the
-    /// cell midpoints; deterministic, biased by discretisation, repeats after `strata`^2.
-    Grid,
+crate::choice_enum! {
+    /// How camera rays sample the pixel's area. Stratified and grid sampling use `strata`^2
+    /// cells; a stratified sample is still uniform over the pixel, so partial rounds stay
+    /// unbiased, while the grid (the textbook's section 10.3, eqs. 4 to 6) is deterministic
+    /// and repeats after `strata`^2 samples.
+    pub enum PixelSampling {
+        #[default]
+        Random = "random": "independent uniform positions in the pixel",
+        Stratified = "stratified": "jittered strata, one sample per stratum each round",
+        Grid = "grid": "the textbook's uniform sub-pixel grid at cell midpoints (biased)",
+    }
 }
 
-crate::choice_enum!(PixelSampling {
-    Random = "random": "independent uniform positions in the pixel",
-    Stratified = "stratified": "jittered strata, one sample per stratum each round",
-    Grid = "grid": "the textbook's uniform sub-pixel grid at cell midpoints (biased)",
-});
-
-/// How light sources are found (the textbook's "explicit light sampling", section 10.9).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum LightSampling {
-    /// Only BSDF-sampled rays that happen to hit an emitter find light.
-    Off,
-    /// A shadow ray to one sampled light per non-delta vertex; emitters that BSDF rays hit
-    /// add nothing unless the ray came from a delta lobe, so nothing is counted twice.
-    Explicit,
-    /// Both strategies, combined by multiple importance sampling (power heuristic, Veach 1997).
-    #[default]
-    Mis,
+crate::choice_enum! {
+    /// How light sources are found (the textbook's "explicit light sampling", section 10.9):
+    /// without it only BSDF-sampled rays that happen to hit an emitter find light; with it a
+    /// shadow ray goes to one sampled light per non-delta vertex, and emitters that BSDF rays
+    /// hit add nothing unless the ray came from a delta lobe; MIS weights both (Veach 1997).
+    pub enum LightSampling {
+        Off = "off": "only BSDF-sampled rays find light",
+        Explicit = "explicit": "a shadow ray per vertex, no double counting",
+        #[default]
+        Mis = "mis": "both, combined by MIS (power heuristic)",
+    }
 }
 
-crate::choice_enum!(LightSampling {
-    Off = "off": "only BSDF-sampled rays find light",
-    Explicit = "explicit": "a shadow ray per vertex, no double counting",
-    Mis = "mis": "both, combined by MIS (power heuristic)",
-});
-
-/// Which estimator of the rendering equation renders the image.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum Integrator {
-    /// Path tracing (section 10.7): one direction per bounce, Russian roulette.
-    #[default]
-    Path,
-    /// Distribution ray tracing (sections 10.2 to 10.6): `branching` directions at every
-    /// hit, recursively to `max_depth`; its cost grows as branching^depth.
-    Distribution,
+crate::choice_enum! {
+    /// Which estimator of the rendering equation renders the image: path tracing (section
+    /// 10.7, Russian roulette), or distribution ray tracing (sections 10.2 to 10.6:
+    /// `branching` directions at every hit, recursively to `max_depth`, whose cost grows as
+    /// branching^depth).
+    pub enum Integrator {
+        #[default]
+        Path = "path": "path tracing, one direction per bounce",
+        Distribution = "distribution": "distribution ray tracing, branching at every hit",
+    }
 }
 
-crate::choice_enum!(Integrator {
-    Path = "path": "path tracing, one direction per bounce",
-    Distribution = "distribution": "distribution ray tracing, branching at every hit",
-});
-
-/// Whether paths carry RGB or sampled wavelengths.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum Spectral {
-    /// Spectral only where the scene needs it (a dispersive material).
-    #[default]
-    Auto,
-    /// Always spectral (hero-wavelength sampling).
-    On,
-    /// Always RGB: dispersive materials refract every wavelength alike, at their index n_d.
-    Off,
+crate::choice_enum! {
+    /// Whether paths carry RGB or sampled wavelengths (hero-wavelength sampling); in RGB,
+    /// dispersive materials refract every wavelength alike, at their index n_d.
+    pub enum Spectral {
+        #[default]
+        Auto = "auto": "spectral only for scenes with dispersive materials",
+        On = "on": "always spectral (hero wavelengths)",
+        Off = "off": "always RGB (dispersion ignored)",
+    }
 }
 
-crate::choice_enum!(Spectral {
-    Auto = "auto": "spectral only for scenes with dispersive materials",
-    On = "on": "always spectral (hero wavelengths)",
-    Off = "off": "always RGB (dispersion ignored)",
-});
-
-/// How distribution ray tracing chooses its hemisphere directions at a hit.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum Directions {
-    /// Stratified Monte Carlo: one BSDF sample (or uniform sample, with importance
-    /// sampling off) per stratum of a grid over the unit square. Unbiased.
-    #[default]
-    Stratified,
-    /// The textbook's uniform theta/phi grid (eqs. 8 to 10), at cell midpoints, weighted by
-    /// sin(theta) dtheta dphi. Deterministic, biased by discretisation; a baseline.
-    Grid,
+crate::choice_enum! {
+    /// How distribution ray tracing chooses its hemisphere directions at a hit: one BSDF
+    /// sample (or uniform one, without importance sampling) per stratum of a grid over the
+    /// unit square, or the textbook's theta/phi grid (eqs. 8 to 10) weighted by
+    /// sin(theta) dtheta dphi, deterministic and a baseline.
+    pub enum Directions {
+        #[default]
+        Stratified = "stratified": "stratified Monte Carlo, one sample per stratum (unbiased)",
+        Grid = "grid": "the textbook's theta/phi grid at cell midpoints (biased)",
+    }
 }
-
-crate::choice_enum!(Directions {
-    Stratified = "stratified": "stratified Monte Carlo, one sample per stratum (unbiased)",
-    Grid = "grid": "the textbook's theta/phi grid at cell midpoints (biased)",
-});
-
-crate::choice_enum!(SamplerKind {
-    Independent = "independent": "independent uniform numbers (PCG32)",
-    Sobol = "sobol": "Owen-scrambled Sobol points, stratified per pixel and draw",
-});
 
 /// Rays one distribution-ray-traced sample may trace before it needs confirmation.
 pub const DRT_RAY_BUDGET: f64 = 2e5;
