@@ -8,6 +8,7 @@
 //! that let light straight through (the null lobe of an index-matched interface or a smooth
 //! thin wall), picking up what those pass; any other surface blocks them.
 
+use super::Context;
 use super::media::{Media, transmittance};
 use super::mis::power_heuristic;
 use super::scatter::Sampling;
@@ -85,17 +86,17 @@ fn segment(
 /// `media`: zero if an opaque or refracting surface blocks it.
 #[inline(always)]
 fn shadow(
-    scene: &Scene,
-    settings: &Settings,
+    cx: Context,
     (origin, wi, target): (Vec3, Vec3, LightTarget),
     media: Media,
     sampler: &mut Sampler,
     wl: &Wavelengths,
 ) -> Spectrum {
+    let Context { scene, settings } = cx;
     let (d, tmax) = towards(settings, origin, wi, target);
     let ray = Ray { o: origin, d, tmax };
     if scene.features.see_through || !media.is_empty() {
-        return shadow_through(scene, settings, (ray, wi, target), media, sampler, wl);
+        return shadow_through(cx, (ray, wi, target), media, sampler, wl);
     }
     if scene.occluded(&ray, settings.watertight) {
         Spectrum::ZERO
@@ -108,13 +109,13 @@ fn shadow(
 /// see-through surface the ray meets, up to `MAX_CROSSINGS`.
 #[inline(never)]
 fn shadow_through(
-    scene: &Scene,
-    settings: &Settings,
+    cx: Context,
     (mut ray, wi, target): (Ray, Vec3, LightTarget),
     mut media: Media,
     sampler: &mut Sampler,
     wl: &Wavelengths,
 ) -> Spectrum {
+    let Context { scene, settings } = cx;
     let mut tr = Spectrum::ONE;
     for _ in 0..MAX_CROSSINGS {
         let Some(hit) = scene.intersect(&ray, settings.watertight, false) else {
@@ -126,7 +127,7 @@ fn shadow_through(
         }
         let surface = scene.surface(&hit);
         tr *= segment(scene, &media, (ray.o, ray.d, hit.t), sampler, wl);
-        let vertex = Vertex::new(scene, settings, surface, ray.d, media, &mut wl.clone());
+        let vertex = Vertex::new(cx, surface, ray.d, media, &mut wl.clone());
         let Some(passed) = vertex.bsdf.null_transmission(vertex.wo) else { return Spectrum::ZERO };
         tr *= wl.reflectance(passed);
         if tr.is_black() {
@@ -163,15 +164,9 @@ fn weighted(
 /// Direct light at the surface `vertex` from one light chosen in proportion to power. Area
 /// lights are sampled by area and converted to solid angle, `Le f cos_s cos_l / (d^2 p_area
 /// p_select)`, with no clamp.
-pub fn sample_direct(
-    scene: &Scene,
-    settings: &Settings,
-    vertex: &Vertex,
-    sampler: &mut Sampler,
-    wl: &Wavelengths,
-) -> DirectLight {
-    match sample_light(scene, settings, vertex, sampler) {
-        Some(light) => light.trace(scene, settings, sampler, wl),
+pub fn sample_direct(cx: Context, vertex: &Vertex, sampler: &mut Sampler, wl: &Wavelengths) -> DirectLight {
+    match sample_light(cx, vertex, sampler) {
+        Some(light) => light.trace(cx, sampler, wl),
         None => DirectLight::NONE,
     }
 }
@@ -180,12 +175,8 @@ pub fn sample_direct(
 /// BSDF's value and density for it; None where it carries nothing. The path tracer draws
 /// and computes its next direction before it traces the shadow ray, so that the processor
 /// works on both at once.
-pub fn sample_light(
-    scene: &Scene,
-    settings: &Settings,
-    vertex: &Vertex,
-    sampler: &mut Sampler,
-) -> Option<PendingLight> {
+pub fn sample_light(cx: Context, vertex: &Vertex, sampler: &mut Sampler) -> Option<PendingLight> {
+    let Context { scene, settings } = cx;
     let u_select = sampler.next_2d();
     let u = sampler.next_2d();
     if !vertex.bsdf.flags().has_non_specular() {
@@ -214,21 +205,20 @@ pub struct PendingLight {
 
 impl PendingLight {
     /// Traces the shadow ray and weights the sample.
-    pub fn trace(self, scene: &Scene, settings: &Settings, sampler: &mut Sampler, wl: &Wavelengths) -> DirectLight {
+    pub fn trace(self, cx: Context, sampler: &mut Sampler, wl: &Wavelengths) -> DirectLight {
         let Self { light, f, bsdf_pdf, origin, media } = self;
-        let tr = shadow(scene, settings, (origin, light.wi, light.target), media, sampler, wl);
+        let tr = shadow(cx, (origin, light.wi, light.target), media, sampler, wl);
         if tr.is_black() {
             return DirectLight { radiance: Spectrum::ZERO, shadow_ray: true };
         }
-        DirectLight { radiance: weighted(settings, &light, (f, bsdf_pdf), tr, wl), shadow_ray: true }
+        DirectLight { radiance: weighted(cx.settings, &light, (f, bsdf_pdf), tr, wl), shadow_ray: true }
     }
 }
 
 /// Direct light at a point `p` where a medium of phase function `phase` scatters light
 /// towards `wo`, the path being in `media` there.
 pub fn sample_medium(
-    scene: &Scene,
-    settings: &Settings,
+    cx: Context,
     (p, wo): (Vec3, Vec3),
     phase: HenyeyGreenstein,
     media: Media,
@@ -237,11 +227,11 @@ pub fn sample_medium(
 ) -> DirectLight {
     let u_select = sampler.next_2d();
     let u = sampler.next_2d();
-    let Some(light) = scene.sample_li(p, u_select, u) else { return DirectLight::NONE };
+    let Some(light) = cx.scene.sample_li(p, u_select, u) else { return DirectLight::NONE };
     let f = phase.eval(wo, light.wi);
-    let tr = shadow(scene, settings, (p, light.wi, light.target), media, sampler, wl);
+    let tr = shadow(cx, (p, light.wi, light.target), media, sampler, wl);
     if tr.is_black() {
         return DirectLight { radiance: Spectrum::ZERO, shadow_ray: true };
     }
-    DirectLight { radiance: weighted(settings, &light, (Spectrum::splat(f), f), tr, wl), shadow_ray: true }
+    DirectLight { radiance: weighted(cx.settings, &light, (Spectrum::splat(f), f), tr, wl), shadow_ray: true }
 }

@@ -8,35 +8,30 @@
 //! tracer's (a scene with a scattering medium refuses this estimator). The denoiser's AOVs
 //! follow the first branch of each delta vertex to the first non-specular one (`aov`).
 
+use super::Context;
 use super::aov::AovTrace;
 use super::direct::sample_direct;
-use super::emission::{emitted, escaped};
+use super::emission::escaped;
 use super::kernel::PathOutput;
 use super::media::{Media, transmittance};
 use super::mis::Scattered;
 use super::scatter::Sampling;
-use super::settings::{Directions, LightSampling, Settings};
-use super::vertex::Vertex;
+use super::settings::{Directions, LightSampling};
+use super::vertex::{Bounces, Step, arrive};
 use crate::bsdf::{Bsdf, LobeFlags, TransportMode};
 use crate::math::sampler::Sampler;
-use crate::scene::{Scene, geometry::Ray};
+use crate::scene::geometry::Ray;
 use crate::spectrum::{Spectrum, Wavelengths};
 use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_PI_2, TAU};
 
 /// Radiance along a camera ray starting in `media` by distribution ray tracing, the rays
 /// it traced, and with `aovs` the denoiser's albedo and normal.
-pub fn radiance(
-    scene: &Scene,
-    settings: &Settings,
-    ray: Ray,
-    media: Media,
-    sampler: &mut Sampler,
-    aovs: bool,
-) -> PathOutput {
+pub fn radiance(cx: Context, ray: Ray, media: Media, sampler: &mut Sampler, aovs: bool) -> PathOutput {
     let mut out = PathOutput::default();
     let mut aov = AovTrace::new(aovs);
-    let radiance = trace(scene, settings, ray, media, (0, 0.0), None, sampler, &mut out, &mut aov);
+    let bounces = Bounces { depth: 0, travelled: 0.0, last: None };
+    let radiance = trace(cx, (ray, media), bounces, sampler, &mut out, &mut aov);
     PathOutput { radiance, aov: aov.finish(), ..out }
 }
 
@@ -55,55 +50,40 @@ fn strata_shape(n: u32) -> (u32, u32) {
     (n / a, a)
 }
 
-/// Radiance arriving along `ray` at bounce `depth`, `travelled` from the vertex that sampled
-/// it as `last`, counting rays into `out` and following `aov`.
-#[allow(clippy::too_many_arguments)]
+/// Radiance arriving along `ray`, in `media`, at the path's `bounces`, counting rays into
+/// `out` and following `aov`.
 fn trace(
-    scene: &Scene,
-    settings: &Settings,
-    ray: Ray,
-    media: Media,
-    (depth, travelled): (u32, f32),
-    last: Option<Scattered>,
+    cx: Context,
+    (ray, media): (Ray, Media),
+    bounces: Bounces,
     sampler: &mut Sampler,
     out: &mut PathOutput,
     aov: &mut AovTrace,
 ) -> Spectrum {
+    let Context { scene, settings } = cx;
+    let Bounces { depth, travelled, last } = bounces;
     out.rays += 1;
     let Some(hit) = scene.intersect(&ray, settings.watertight, depth == 0) else {
-        return escaped(scene, settings, ray.d, last, &media, &Wavelengths::Rgb);
+        return escaped(cx, ray.d, last, &media, &Wavelengths::Rgb);
     };
     let absorbed = if scene.features.volumes {
         transmittance(media.sigma_t(&scene.materials), hit.t * ray.d.length())
     } else {
         Spectrum::ONE
     };
-    let surface = scene.surface(&hit);
-    let mut radiance = Spectrum::ZERO;
-    if surface.ng.dot(ray.d) < 0.0 {
-        radiance += emitted(scene, settings, &surface, -ray.d, travelled + hit.t, last, &Wavelengths::Rgb);
-    }
-    if depth == settings.max_depth && !scene.features.see_through && media.is_empty() {
-        if aov.pending() {
-            aov.surface(&Vertex::new(scene, settings, surface, ray.d, media, &mut Wavelengths::Rgb));
+    let (emission, step) = arrive(cx, (&ray, &hit), media, bounces, &mut Wavelengths::Rgb, aov);
+    let mut radiance = emission.unwrap_or(Spectrum::ZERO);
+    let vertex = match step {
+        Step::Scatter(vertex) => vertex,
+        Step::Pass { weight, ray, media } => {
+            let arriving =
+                trace(cx, (ray, media), Bounces { travelled: travelled + hit.t, ..bounces }, sampler, out, aov);
+            return (radiance + weight * arriving) * absorbed;
         }
-        return radiance * absorbed;
-    }
-    let vertex = Vertex::new(scene, settings, surface, ray.d, media, &mut Wavelengths::Rgb);
-    aov.surface(&vertex);
-    if depth == settings.max_depth {
-        // No bounce is left, but light passing straight through still goes on.
-        if let Some(passed) = vertex.bsdf.null_transmission(vertex.wo).filter(|p| !p.is_black()) {
-            let next = Ray { o: vertex.behind, d: ray.d, tmax: f32::INFINITY };
-            let media = vertex.media_after(scene, true);
-            aov.delta(passed, 1.0);
-            let arriving = trace(scene, settings, next, media, (depth, travelled + hit.t), last, sampler, out, aov);
-            radiance += passed * arriving;
-        }
-        return radiance * absorbed;
-    }
+        Step::End => return radiance * absorbed,
+    };
     if settings.light_sampling != LightSampling::Off && !scene.light_sampler.is_empty() {
-        let direct = sample_direct(scene, settings, &vertex, sampler, &Wavelengths::Rgb);
+        let direct = sample_direct(cx, &vertex, sampler, &Wavelengths::Rgb);
         radiance += direct.radiance;
         out.rays += direct.shadow_ray as u32;
         out.shadow_rays += direct.shadow_ray as u32;
@@ -115,11 +95,11 @@ fn trace(
             let Some((d, o, crosses)) = vertex.leave(wi_local) else { return Spectrum::ZERO };
             let next = Ray { o, d, tmax: f32::INFINITY };
             let media = vertex.media_after(scene, crosses);
-            let (depth, travelled, last) = match scattered {
-                Some(s) => (depth + 1, 0.0, Some(s)),
-                None => (depth, travelled + hit.t, last),
+            let bounces = match scattered {
+                Some(s) => Bounces { depth: depth + 1, travelled: 0.0, last: Some(s) },
+                None => Bounces { travelled: travelled + hit.t, ..bounces },
             };
-            weight * trace(scene, settings, next, media, (depth, travelled), last, sampler, out, aov)
+            weight * trace(cx, (next, media), bounces, sampler, out, aov)
         };
     let sampling = Sampling::new(settings.importance_sampling);
     match settings.directions {

@@ -1,11 +1,11 @@
 //! Light a path finds by itself: the emitters its rays hit and the environment where they
 //! leave the scene, each weighted against light sampling so nothing is counted twice.
 
+use super::Context;
 use super::media::{Media, transmittance};
 use super::mis::{Scattered, emission_weight};
 use super::nan::{NanCause, check};
-use super::settings::Settings;
-use crate::scene::{Scene, Surface, light::LightHit};
+use crate::scene::{Surface, light::LightHit};
 use crate::spectrum::{Spectrum, Wavelengths};
 use glam::Vec3;
 
@@ -13,14 +13,14 @@ use glam::Vec3;
 /// units of the ray's direction, which was `-wo`) by a ray sampled as `last`.
 #[inline]
 pub fn emitted(
-    scene: &Scene,
-    settings: &Settings,
+    cx: Context,
     surface: &Surface,
     wo: Vec3,
     t: f32,
     last: Option<Scattered>,
     wl: &Wavelengths,
 ) -> Spectrum {
+    let Context { scene, settings } = cx;
     let material = &scene.materials[surface.material as usize];
     if !material.is_emissive() {
         return Spectrum::ZERO;
@@ -38,14 +38,8 @@ pub fn emitted(
 /// Radiance from the environment along `d`, the direction of a ray sampled as `last` that
 /// left the scene, attenuated by the volume the ray was in.
 #[inline]
-pub fn escaped(
-    scene: &Scene,
-    settings: &Settings,
-    d: Vec3,
-    last: Option<Scattered>,
-    media: &Media,
-    wl: &Wavelengths,
-) -> Spectrum {
+pub fn escaped(cx: Context, d: Vec3, last: Option<Scattered>, media: &Media, wl: &Wavelengths) -> Spectrum {
+    let Context { scene, settings } = cx;
     let Some(env) = &scene.environment else { return Spectrum::ZERO };
     let d = d.normalize();
     let weight = emission_weight(settings, last, || scene.pdf_li(LightHit::Escaped(d)));

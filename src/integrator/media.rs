@@ -2,12 +2,14 @@
 //! refraction lies on each side of an interface, and what absorbs along each segment.
 //! Crossing a volume's surface from its front pushes the volume, from its back removes it,
 //! so a liquid inside a glass sees the glass (not air) around it. A camera inside volumes
-//! starts with the stack a probe ray finds (`Media::containing`).
+//! starts with the stack a probe ray finds (`Media::containing`). And where along a segment
+//! a scattering volume scatters a path (`flight`).
 
-use crate::medium::Volume;
+use crate::math::sampler::Sampler;
 pub use crate::medium::transmittance;
+use crate::medium::{Flight, Volume, sample_flight};
 use crate::scene::{Scene, geometry::Ray, material::Material};
-use crate::spectrum::Spectrum;
+use crate::spectrum::{Spectrum, Wavelengths};
 use glam::Vec3;
 
 /// Most surfaces a probe ray looks at.
@@ -97,6 +99,36 @@ impl Media {
     /// Extinction coefficient of the innermost volume (zero outside every volume).
     pub fn sigma_t(&self, materials: &[Material]) -> Spectrum {
         self.volume(materials).map_or(Spectrum::ZERO, |v| v.sigma_t())
+    }
+}
+
+/// Where the scattering `volume` scatters a path of throughput `beta` first along `ray`, up
+/// to the surface at `t_max` (the ray's unit direction's distance; infinite without one):
+/// delta tracking through a density grid (a real collision scatters with the albedo as
+/// weight; passing weighs 1), free-flight sampling in a homogeneous medium (pbrt-v4's
+/// VolPathIntegrator). The distance is along the ray's unit direction.
+#[inline]
+pub fn flight(
+    scene: &Scene,
+    volume: &Volume,
+    (ray, t_max): (&Ray, f32),
+    beta: Spectrum,
+    sampler: &mut Sampler,
+    wl: &Wavelengths,
+) -> Flight {
+    match volume.grid {
+        Some(g) => {
+            let mut u = || sampler.next_1d();
+            let (sigma, length) = (volume.sigma_t.max_element(), ray.d.length());
+            match scene.grids[g as usize].delta_track(sigma, ray.o, ray.d / length, t_max, &mut u) {
+                Some(t) => Flight::Scatter { t, weight: wl.reflectance(Spectrum::from_rgb(volume.albedo)) },
+                None => Flight::Pass { weight: Spectrum::ONE },
+            }
+        }
+        None => {
+            let u = (sampler.next_1d(), sampler.next_1d());
+            sample_flight(wl.reflectance(volume.sigma_t()), wl.reflectance(volume.sigma_s()), t_max, beta, u)
+        }
     }
 }
 

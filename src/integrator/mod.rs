@@ -19,6 +19,17 @@ pub mod scatter;
 pub mod settings;
 mod vertex;
 
+use crate::scene::Scene;
+
+/// What every part of an estimator reads: the scene and the render settings.
+#[derive(Clone, Copy)]
+pub(crate) struct Context<'a> {
+    /// The scene.
+    pub scene: &'a Scene,
+    /// The render settings.
+    pub settings: &'a Settings,
+}
+
 pub use aov::Aov;
 pub use drt::grid_shape;
 pub use kernel::{PathOutput, View, is_spectral, sample_pixel, sample_pixels, simulated_effects};

@@ -16,188 +16,228 @@
 //! Asked for them, the path also reports the denoiser's AOVs: the albedo and normal of its
 //! first non-specular vertex (`aov`).
 
+use super::Context;
 use super::aov::AovTrace;
-use super::direct::{sample_light, sample_medium};
-use super::emission::{emitted, escaped};
+use super::direct::{DirectLight, sample_light, sample_medium};
+use super::emission::escaped;
 use super::kernel::PathOutput;
-use super::media::{Media, transmittance};
+use super::media::{Media, flight, transmittance};
 use super::mis::Scattered;
 use super::nan::{NanCause, check};
 use super::scatter::Sampling;
 use super::settings::{LightSampling, Settings};
-use super::vertex::Vertex;
-use crate::bsdf::LobeFlags;
+use super::vertex::{Bounces, Step, Vertex, arrive};
+use crate::bsdf::{BsdfSample, LobeFlags};
 use crate::math::sampler::Sampler;
-use crate::medium::{Flight, sample_flight};
-use crate::scene::{Scene, geometry::Ray};
+use crate::medium::{Flight, Volume};
+use crate::scene::geometry::Ray;
 use crate::spectrum::{Spectrum, Wavelengths};
 
 /// Most surfaces a path crosses without a bounce (guards against coincident null surfaces).
 const MAX_CROSSINGS: u32 = 256;
 
 /// Radiance along a camera ray starting in `media`, by path tracing, the rays it traced,
-/// and with `aovs` the denoiser's albedo and normal.
+/// and with `aovs` the denoiser's albedo and normal (pbrt-v4's `PathIntegrator::Li`, with
+/// `MEDIA` its `VolPathIntegrator::Li`).
 pub fn radiance<const MEDIA: bool>(
-    scene: &Scene,
-    settings: &Settings,
-    mut ray: Ray,
-    mut media: Media,
+    cx: Context,
+    ray: Ray,
+    media: Media,
     sampler: &mut Sampler,
     wl: &mut Wavelengths,
     aovs: bool,
 ) -> PathOutput {
-    let mut out = PathOutput::default();
-    let mut aov = AovTrace::new(aovs);
-    let mut throughput = Spectrum::ONE;
-    let mut eta_scale = 1.0f32;
-    let mut last: Option<Scattered> = None;
-    // Distance from the last scattering vertex to the current ray's origin.
-    let mut travelled = 0.0f32;
-    let (mut depth, mut crossings) = (0u32, 0u32);
+    let Context { scene, settings } = cx;
+    let mut path = Path::new(ray, media, aovs);
     let sampling = Sampling::new(settings.importance_sampling);
     let sample_lights = settings.light_sampling != LightSampling::Off && !scene.light_sampler.is_empty();
     loop {
-        out.rays += 1;
-        let hit = scene.intersect(&ray, settings.watertight, depth == 0);
+        path.out.rays += 1;
+        let hit = scene.intersect(&path.ray, settings.watertight, path.bounces.depth == 0);
 
-        // A scattering medium along the segment: sample where light scatters first.
-        if MEDIA && let Some(volume) = media.volume(&scene.materials).filter(|v| v.scatters()) {
-            let length = ray.d.length();
-            let t_max = hit.map_or(f32::INFINITY, |h| h.t * length);
-            let scattered = match volume.grid {
-                Some(g) => {
-                    // Delta tracking: a real collision scatters with the albedo as weight.
-                    let mut u = || sampler.next_1d();
-                    let sigma = volume.sigma_t.max_element();
-                    scene.grids[g as usize]
-                        .delta_track(sigma, ray.o, ray.d / length, t_max, &mut u)
-                        .map(|t| (t, wl.reflectance(Spectrum::from_rgb(volume.albedo))))
-                }
-                None => {
-                    let u = (sampler.next_1d(), sampler.next_1d());
-                    match sample_flight(
-                        wl.reflectance(volume.sigma_t()),
-                        wl.reflectance(volume.sigma_s()),
-                        t_max,
-                        throughput,
-                        u,
-                    ) {
-                        Flight::Scatter { t, weight } => Some((t, weight)),
-                        Flight::Pass { weight } => {
-                            throughput *= weight;
-                            None
-                        }
+        // A scattering medium along the segment: where light scatters first, if before the surface.
+        if MEDIA && let Some(volume) = path.media.volume(&scene.materials).filter(|v| v.scatters()) {
+            let t_max = hit.map_or(f32::INFINITY, |h| h.t * path.ray.d.length());
+            match flight(scene, &volume, (&path.ray, t_max), path.throughput, sampler, wl) {
+                Flight::Scatter { t, weight } => {
+                    if !path.scatter_in_medium(cx, (&volume, t, weight), sample_lights, sampler, wl) {
+                        break;
                     }
+                    continue;
                 }
-            };
-            if let Some((t, weight)) = scattered {
-                throughput *= weight;
-                aov.medium(volume.albedo, -ray.d / length);
-                if depth == settings.max_depth {
-                    break;
-                }
-                let wo = -ray.d / length;
-                let p = ray.o + ray.d * (t / length);
-                let phase = volume.phase();
-                if sample_lights {
-                    let direct = sample_medium(scene, settings, (p, wo), phase, media, sampler, wl);
-                    check(NanCause::LightSample, direct.radiance);
-                    out.radiance += throughput * direct.radiance;
-                    out.rays += direct.shadow_ray as u32;
-                    out.shadow_rays += direct.shadow_ray as u32;
-                }
-                let next = phase.sample(wo, sampler.next_2d());
-                last = Some(Scattered { pdf: next.pdf, specular: false });
-                travelled = 0.0;
-                ray = Ray { o: p, d: next.wi, tmax: f32::INFINITY };
-                depth += 1;
-                if !roulette(settings, depth, &mut throughput, eta_scale, sampler) {
-                    break;
-                }
-                continue;
+                Flight::Pass { weight } => path.throughput *= weight,
             }
         } else if let Some(hit) = hit
             && scene.features.volumes
         {
-            throughput *= transmittance(wl.reflectance(media.sigma_t(&scene.materials)), hit.t * ray.d.length());
+            let sigma_t = wl.reflectance(path.media.sigma_t(&scene.materials));
+            path.throughput *= transmittance(sigma_t, hit.t * path.ray.d.length());
         }
+
+        // Escaped: light from the environment.
         let Some(hit) = hit else {
-            out.radiance += throughput * escaped(scene, settings, ray.d, last, &media, wl);
+            path.out.radiance += path.throughput * escaped(cx, path.ray.d, path.bounces.last, &path.media, wl);
             break;
         };
-        let surface = scene.surface(&hit);
 
-        // Emission found by the path itself.
-        if surface.ng.dot(ray.d) < 0.0 {
-            out.radiance += throughput * emitted(scene, settings, &surface, -ray.d, travelled + hit.t, last, wl);
+        // The surface: the light it emits, then a vertex, passing straight through, or the end.
+        let (emission, step) = arrive(cx, (&path.ray, &hit), path.media, path.bounces, wl, &mut path.aov);
+        if let Some(le) = emission {
+            path.out.radiance += path.throughput * le;
         }
-        if depth == settings.max_depth && !scene.features.see_through && media.is_empty() {
-            if aov.pending() {
-                // Its own wavelengths: the path's must not change for the AOVs' sake.
-                aov.surface(&Vertex::new(scene, settings, surface, ray.d, media, &mut Wavelengths::Rgb));
+        let vertex = match step {
+            Step::Scatter(vertex) => vertex,
+            Step::Pass { weight, ray, media } => {
+                if !path.pass(weight, (ray, media), hit.t, wl) {
+                    break;
+                }
+                continue;
             }
-            break;
-        }
-        let vertex = Vertex::new(scene, settings, surface, ray.d, media, wl);
-        aov.surface(&vertex);
-        if depth == settings.max_depth {
-            // No bounce is left, but light passing straight through still goes on.
-            let Some(passed) = vertex.bsdf.null_transmission(vertex.wo) else { break };
-            crossings += 1;
-            if passed.is_black() || crossings > MAX_CROSSINGS {
-                break;
-            }
-            throughput *= wl.reflectance(passed);
-            aov.delta(passed, 1.0);
-            travelled += hit.t;
-            media = vertex.media_after(scene, true);
-            ray = Ray { o: vertex.behind, d: ray.d, tmax: f32::INFINITY };
-            continue;
-        }
+            Step::End => break,
+        };
 
         // Light sampling: one shadow ray towards a light chosen by power, traced after the
         // BSDF's direction is drawn and computed, so that the two overlap (the numbers are
         // drawn in the same order either way, unless the shadow ray's volumes draw too).
-        let light = if sample_lights { sample_light(scene, settings, &vertex, sampler) } else { None };
-
-        // BSDF sampling: the direction of the next segment.
+        let light = if sample_lights { sample_light(cx, &vertex, sampler) } else { None };
         let u_lobe = sampler.next_1d();
         let u = sampler.next_2d();
         let sampled = sampling.sample(&vertex.bsdf, vertex.wo, u_lobe, u);
         if let Some(light) = light {
-            let direct = light.trace(scene, settings, sampler, wl);
-            check(NanCause::LightSample, direct.radiance);
-            out.radiance += throughput * direct.radiance;
-            out.rays += direct.shadow_ray as u32;
-            out.shadow_rays += direct.shadow_ray as u32;
+            path.add_direct(light.trace(cx, sampler, wl));
         }
+
+        // BSDF sampling: the next segment, and Russian roulette.
         let Some(bs) = sampled else { break };
-        check(NanCause::BsdfSample, bs.weight);
-        let Some((d, origin, crosses)) = vertex.leave(bs.wi) else { break };
-        throughput *= wl.reflectance(bs.weight);
-        aov.delta(bs.weight, bs.eta);
-        media = vertex.media_after(scene, crosses);
-        ray = Ray { o: origin, d, tmax: f32::INFINITY };
-        if bs.flags.contains(LobeFlags::NULL) {
-            crossings += 1;
-            if crossings > MAX_CROSSINGS {
-                break;
-            }
-            travelled += hit.t;
-            continue;
-        }
-        if bs.is_transmission() {
-            eta_scale *= bs.eta * bs.eta;
-        }
-        last = Some(Scattered { pdf: bs.pdf, specular: bs.is_specular() });
-        travelled = 0.0;
-        depth += 1;
-        if !roulette(settings, depth, &mut throughput, eta_scale, sampler) {
+        if !path.bounce(cx, &vertex, bs, hit.t, sampler, wl) {
             break;
         }
     }
-    out.aov = aov.finish();
-    out
+    path.out.aov = path.aov.finish();
+    path.out
+}
+
+/// A path's state between its segments.
+struct Path {
+    /// What it has gathered so far.
+    out: PathOutput,
+    /// The denoiser's AOVs.
+    aov: AovTrace,
+    /// Its throughput.
+    throughput: Spectrum,
+    /// The product of eta^2 over its refractions (pbrt-v4's etaScale), for roulette.
+    eta_scale: f32,
+    /// Its bounces, and how the current ray was sampled.
+    bounces: Bounces,
+    /// Surfaces crossed without a bounce.
+    crossings: u32,
+    /// The current ray.
+    ray: Ray,
+    /// The volumes the current ray is in.
+    media: Media,
+}
+
+impl Path {
+    fn new(ray: Ray, media: Media, aovs: bool) -> Self {
+        Self {
+            out: PathOutput::default(),
+            aov: AovTrace::new(aovs),
+            throughput: Spectrum::ONE,
+            eta_scale: 1.0,
+            bounces: Bounces { depth: 0, travelled: 0.0, last: None },
+            crossings: 0,
+            ray,
+            media,
+        }
+    }
+
+    /// Adds a light sample's contribution.
+    #[inline(always)]
+    fn add_direct(&mut self, direct: DirectLight) {
+        check(NanCause::LightSample, direct.radiance);
+        self.out.radiance += self.throughput * direct.radiance;
+        self.out.rays += direct.shadow_ray as u32;
+        self.out.shadow_rays += direct.shadow_ray as u32;
+    }
+
+    /// Light passes straight through a surface with `weight`, on along `ray` in `media`, the
+    /// current ray having reached it after `t`; false if the path has crossed too many.
+    #[inline(always)]
+    fn pass(&mut self, weight: Spectrum, (ray, media): (Ray, Media), t: f32, wl: &Wavelengths) -> bool {
+        self.crossings += 1;
+        if self.crossings > MAX_CROSSINGS {
+            return false;
+        }
+        self.throughput *= wl.reflectance(weight);
+        self.bounces.travelled += t;
+        self.media = media;
+        self.ray = ray;
+        true
+    }
+
+    /// The volume scatters the path `t` along its ray with `weight`: light sampling with
+    /// the phase function, then the phase function's direction; false if the path ends.
+    #[inline(always)]
+    fn scatter_in_medium(
+        &mut self,
+        cx: Context,
+        (volume, t, weight): (&Volume, f32, Spectrum),
+        sample_lights: bool,
+        sampler: &mut Sampler,
+        wl: &Wavelengths,
+    ) -> bool {
+        let length = self.ray.d.length();
+        self.throughput *= weight;
+        self.aov.medium(volume.albedo, -self.ray.d / length);
+        if self.bounces.depth == cx.settings.max_depth {
+            return false;
+        }
+        let wo = -self.ray.d / length;
+        let p = self.ray.o + self.ray.d * (t / length);
+        let phase = volume.phase();
+        if sample_lights {
+            self.add_direct(sample_medium(cx, (p, wo), phase, self.media, sampler, wl));
+        }
+        let next = phase.sample(wo, sampler.next_2d());
+        self.bounces.last = Some(Scattered { pdf: next.pdf, specular: false });
+        self.bounces.travelled = 0.0;
+        self.ray = Ray { o: p, d: next.wi, tmax: f32::INFINITY };
+        self.bounces.depth += 1;
+        roulette(cx.settings, self.bounces.depth, &mut self.throughput, self.eta_scale, sampler)
+    }
+
+    /// The path leaves `vertex`, which its ray reached after `t`, along the BSDF sample
+    /// `bs`; false if it ends (a direction the surface blocks, too many crossings, roulette).
+    #[inline(always)]
+    fn bounce(
+        &mut self,
+        cx: Context,
+        vertex: &Vertex,
+        bs: BsdfSample,
+        t: f32,
+        sampler: &mut Sampler,
+        wl: &Wavelengths,
+    ) -> bool {
+        check(NanCause::BsdfSample, bs.weight);
+        let Some((d, origin, crosses)) = vertex.leave(bs.wi) else { return false };
+        self.throughput *= wl.reflectance(bs.weight);
+        self.aov.delta(bs.weight, bs.eta);
+        self.media = vertex.media_after(cx.scene, crosses);
+        self.ray = Ray { o: origin, d, tmax: f32::INFINITY };
+        if bs.flags.contains(LobeFlags::NULL) {
+            // Crossed without a bounce: the last vertex stays the reference of MIS.
+            self.crossings += 1;
+            self.bounces.travelled += t;
+            return self.crossings <= MAX_CROSSINGS;
+        }
+        if bs.is_transmission() {
+            self.eta_scale *= bs.eta * bs.eta;
+        }
+        self.bounces.last = Some(Scattered { pdf: bs.pdf, specular: bs.is_specular() });
+        self.bounces.travelled = 0.0;
+        self.bounces.depth += 1;
+        roulette(cx.settings, self.bounces.depth, &mut self.throughput, self.eta_scale, sampler)
+    }
 }
 
 /// Highest survival probability of Russian roulette. Below 1, so that a path whose

@@ -1,13 +1,22 @@
 //! A surface scattering vertex: where a ray met a surface, the shading frame turned to the
 //! side it arrived from, the BSDF there, where rays leave from, and the volumes the path is
-//! in. Shared by the path tracer and the distribution ray tracer.
+//! in; and the step every estimator takes where its ray meets a surface (`arrive`): the
+//! light found there, then a vertex to scatter at, light passing straight through once no
+//! bounce is left, or the end. Shared by the path tracer and the distribution ray tracer.
 
+use super::Context;
+use super::aov::AovTrace;
+use super::emission::emitted;
 use super::media::Media;
-use super::settings::Settings;
+use super::mis::Scattered;
 use crate::bsdf::Bsdf;
 use crate::math::frame::Frame;
-use crate::scene::{Scene, Surface, shading::bend_normal};
-use crate::spectrum::Wavelengths;
+use crate::scene::{
+    Scene, Surface,
+    geometry::{Hit, Ray},
+    shading::bend_normal,
+};
+use crate::spectrum::{Spectrum, Wavelengths};
 use glam::Vec3;
 
 /// Shading frame at `surface` for a ray arriving from `wo`, turned to the side it arrived
@@ -43,14 +52,8 @@ pub struct Vertex<'a> {
 
 impl<'a> Vertex<'a> {
     /// The vertex where a ray travelling along `d` meets `surface`.
-    pub fn new(
-        scene: &'a Scene,
-        settings: &Settings,
-        surface: Surface,
-        d: Vec3,
-        media: Media,
-        wl: &mut Wavelengths,
-    ) -> Self {
+    pub fn new(cx: Context<'a>, surface: Surface, d: Vec3, media: Media, wl: &mut Wavelengths) -> Self {
+        let Context { scene, settings } = cx;
         let wo_world = -d;
         let front = surface.ng.dot(wo_world) > 0.0;
         let mut frame = shading_frame(&surface, front, wo_world);
@@ -102,5 +105,77 @@ impl<'a> Vertex<'a> {
             media.cross(self.surface.material, self.front);
         }
         media
+    }
+}
+
+/// Where a path stands when its ray meets a surface: the bounces it made (`depth`), the
+/// distance its ray has travelled since the last of them (`travelled`, which null surfaces
+/// crossed on the way add to) and how that bounce sampled the ray (`last`).
+#[derive(Clone, Copy)]
+pub struct Bounces {
+    /// Scattering events so far.
+    pub depth: u32,
+    /// Distance from the last scattering vertex to the ray's origin.
+    pub travelled: f32,
+    /// How the ray was sampled at that vertex (None for a camera ray).
+    pub last: Option<Scattered>,
+}
+
+/// What a path does after meeting a surface. The vertex is large, but it is moved once
+/// into the loop's binding, and a box would allocate at every bounce.
+#[allow(clippy::large_enum_variant)]
+pub enum Step<'a> {
+    /// Scatter at this vertex.
+    Scatter(Vertex<'a>),
+    /// No bounce is left, but light passes straight through (a null lobe) with `weight`,
+    /// on along `ray` in `media`.
+    Pass {
+        /// What the null lobe passes on.
+        weight: Spectrum,
+        /// The ray beyond the surface.
+        ray: Ray,
+        /// The volumes it is in.
+        media: Media,
+    },
+    /// The path ends.
+    End,
+}
+
+/// The ray `ray`, in `media`, meets the surface of `hit`: the radiance its front emits back
+/// along the ray (None from behind), weighted against light sampling, and the next step;
+/// the AOV trace records the vertex. At `max_depth` the vertex is built only where light
+/// may pass straight through it (or the AOVs still need it).
+pub fn arrive<'a>(
+    cx: Context<'a>,
+    (ray, hit): (&Ray, &Hit),
+    media: Media,
+    bounces: Bounces,
+    wl: &mut Wavelengths,
+    aov: &mut AovTrace,
+) -> (Option<Spectrum>, Step<'a>) {
+    let Context { scene, settings } = cx;
+    let surface = scene.surface(hit);
+    let Bounces { depth, travelled, last } = bounces;
+    let emission = (surface.ng.dot(ray.d) < 0.0).then(|| emitted(cx, &surface, -ray.d, travelled + hit.t, last, wl));
+    if depth == settings.max_depth && !scene.features.see_through && media.is_empty() {
+        if aov.pending() {
+            // Its own wavelengths: the path's must not change for the AOVs' sake.
+            aov.surface(&Vertex::new(cx, surface, ray.d, media, &mut Wavelengths::Rgb));
+        }
+        return (emission, Step::End);
+    }
+    let vertex = Vertex::new(cx, surface, ray.d, media, wl);
+    aov.surface(&vertex);
+    if depth < settings.max_depth {
+        return (emission, Step::Scatter(vertex));
+    }
+    // No bounce is left, but light passing straight through still goes on.
+    match vertex.bsdf.null_transmission(vertex.wo).filter(|p| !p.is_black()) {
+        Some(weight) => {
+            aov.delta(weight, 1.0);
+            let next = Ray { o: vertex.behind, d: ray.d, tmax: f32::INFINITY };
+            (emission, Step::Pass { weight, ray: next, media: vertex.media_after(scene, true) })
+        }
+        None => (emission, Step::End),
     }
 }
