@@ -1,7 +1,7 @@
 //! Root-mean-square error of images against a reference, over all pixels and apart from a
 //! window (the Cornell light's edges, where pixel-area sampling's error gathers):
 //! `cargo run --release --example rmse -- REF.exr [--window X0,Y0,X1,Y1] IMAGE.exr...`.
-//! The README's error-at-equal-time figures against Mitsuba 3 come from it.
+//! The error-at-equal-time figures of docs/performance.md come from it.
 
 use std::process::ExitCode;
 
