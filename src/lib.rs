@@ -5,9 +5,11 @@
 //! ```text
 //! glTF file / built-in scene
 //!     -> loader      (flatten node transforms, materials, lights, cameras)
-//!     -> scene       (immutable: triangles + CWBVH, materials, lights, feature set)
+//!     -> scene       (immutable: triangles in eight-wide BVHs, two levels for instances;
+//!                     materials, lights, feature set)
 //!     -> integrator  (path tracer and distribution ray tracer with their sampling switches)
-//!     -> film        (per-pixel f64 sums owned by tiles; tone mapping; PNG and EXR output)
+//!     -> film        (exact 128-bit fixed-point sums of radiance and f64 sums of squares,
+//!                     owned by tiles; tone mapping; PNG, EXR and piece output)
 //!     -> render      (session: workers, generations, snapshots)
 //!     -> viewer      (winit + wgpu + egui window)  |  cli (headless render, benchmarks)
 //! ```
@@ -15,8 +17,9 @@
 //! - [`loader`] reads glTF ([`loader::gltf`]) or builds the Cornell box ([`loader::builtin`]);
 //!   [`open()`] is the one entry that loads, lights and builds a [`scene::Scene`].
 //! - [`scene`] holds geometry and its BVH ([`scene::geometry`]), materials
-//!   ([`scene::material`]), lights and their sampling interface ([`scene::light`]), the
-//!   environment ([`scene::environment`]) and cameras ([`scene::camera`]).
+//!   ([`scene::material`]), lights, one type per kind, and their sampling interface
+//!   ([`scene::light`]), among them the environment ([`scene::environment`]), and cameras
+//!   ([`scene::camera`]).
 //! - [`bsdf`] has the reflection models in the shading frame; [`spectrum`] the quantity
 //!   light transport carries.
 //! - [`integrator`] estimates radiance per pixel sample ([`integrator::sample_pixel`]),

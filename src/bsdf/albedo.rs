@@ -5,8 +5,8 @@
 //! With F = f0 + (1 - f0) (1 - v.h)^5, the albedo E(mu, alpha, f0) is linear in f0:
 //! E = f0 (A - B) + B, with A the albedo for F = 1 and B the albedo for F = (1 - v.h)^5.
 //! Both are integrated by stratified VNDF sampling, where f cos / pdf = F G2 / G1, offline
-//! (`albedo_table.rs`): computing them at run time took 0.2 s of a glossy scene's start,
-//! 735 M instructions, which every piece of a farm render paid again.
+//! (`albedo_table.rs`), so that no scene's start, nor every piece of a farm render, pays
+//! for integrating them.
 
 use super::microfacet::{Ggx, reflect};
 use glam::{Vec2, Vec3};

@@ -424,8 +424,8 @@ impl MetalRough {
     }
 
     /// The base's GGX albedo tables at cosine `mu`, read once per direction: multiple
-    /// scattering, the specular layer's albedo and the lobe probabilities all blend them, and
-    /// reading them again for each (up to five times per direction) took 5.7% of ToyCar's time.
+    /// scattering, the specular layer's albedo and the lobe probabilities all blend them
+    /// (up to five times per direction otherwise).
     fn tables(&self, mu: f32) -> GgxAlbedo {
         GgxAlbedo::new(mu, self.roughness())
     }

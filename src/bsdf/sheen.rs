@@ -1,8 +1,7 @@
 //! KHR_materials_sheen: the "Charlie" distribution of Estevez and Kulla (2017) with
 //! Ashikhmin's visibility term, and its directional albedo, tabulated offline
 //! (`sheen_table.rs`) so that the layers under the sheen can be weighted by the energy it
-//! leaves. Integrating the table at run time cost 3.4 G instructions (about 1 s) of the
-//! start of every scene with a sheen, such as ToyCar. That visibility
+//! leaves, without integrating it at the start of every scene with a sheen. That visibility
 //! term is not energy conserving: a thin sheen (alpha 0.01) reflects 1.33 at cos theta 0.07.
 //! The lobe is therefore divided by max(1, E(wo), E(wi)), which keeps it symmetric and its
 //! albedo at most 1.

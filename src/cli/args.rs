@@ -26,7 +26,7 @@ pub enum Command {
     View(ViewArgs),
     /// Render a scene headless to a PNG (tonemapped sRGB) or OpenEXR (linear) file.
     Render(RenderArgs),
-    /// Measure samples/s and rays/s: kernel specialisation, or robustness mechanisms.
+    /// Measure: the kernel's and the robustness mechanisms' cost, error against time, throughput, adaptive sampling.
     Bench(BenchArgs),
     /// Add pieces of a render (`render --samples A..B --region X0,Y0,X1,Y1 --out X.part`) into its image.
     Merge(MergeArgs),
@@ -216,13 +216,13 @@ pub struct RenderOptions {
     /// Give every mesh its material in this KHR_materials_variants variant (by name).
     #[arg(long)]
     pub variant: Option<String>,
-    /// Meshes placed many times: `auto` stores once and traces through a BVH of placements
-    /// those whose copies add up to more than 65,536 triangles and flattens the rest,
+    /// Meshes placed many times: `auto` instances those whose copies add up to more than
+    /// 65,536 triangles (stored once, traced through a BVH of placements) and flattens the rest,
     /// `always` instances every one, `never` flattens every one (memory then follows the
     /// placed triangles).
     #[arg(long, default_value = "auto", value_parser = ["auto", "always", "never"])]
     pub instancing: String,
-    /// Every render and display setting (see the table in the README).
+    /// Every render and display setting (see the table in docs/cli.md).
     #[command(flatten)]
     pub params: ParamArgs,
     /// Worker threads [default: one per core].

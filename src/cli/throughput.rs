@@ -112,7 +112,7 @@ fn suite(
                 cmd.args(scene.iter());
                 cmd.args(["--spp", &args.spp.to_string(), "--width", &size.to_string(), "--height", &size.to_string()]);
                 // A fixed workload, whatever the estimator's defaults: 7 bounces, roulette
-                // from 3 (the default the README's suite figures ran with), so that builds
+                // from 3 (the default docs/performance.md's suite figures ran with), so that builds
                 // of any age compare.
                 cmd.args(["--max-depth", "7", "--rr-depth", "3", "--threads", threads]);
                 cmd.args(case.options).arg("--out").arg(temp.join("image.exr"));

@@ -55,8 +55,7 @@ fn towards(settings: &Settings, origin: Vec3, wi: Vec3, target: LightTarget) -> 
 
 /// Transmittance of the volume innermost in `media` along the ray from `o` along `d` up to
 /// parameter `t`: Beer-Lambert for a homogeneous medium, ratio tracking through a grid.
-/// Forced inline, with `shadow`: left to itself the compiler called both out of line, which
-/// cost the Cornell box 0.7% more instructions per sample (callgrind).
+/// Forced inline, with `shadow`: left to itself the compiler calls both out of line.
 #[inline(always)]
 fn segment(
     scene: &Scene,

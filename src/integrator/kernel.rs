@@ -4,15 +4,12 @@
 //!
 //! Effects a scene lacks are skipped by runtime switches on `scene.features` (media
 //! tracking, alpha and culling in traversal) and on the scene's own data (no light: no
-//! light sampling; no environment: nothing on escape; a Lambertian material: no GGX). The
-//! kernel used to be monomorphised over four of these switches through 16 instances; with
-//! runtime switches the Cornell box runs 0.6% more instructions per sample (callgrind,
-//! 96x96 at 4 spp: 526.5 M against 523.3 M) and renders the same bits, because the
-//! branches removed were cheap and predictable. Compile-time specialisation is kept for
-//! what changes per-segment work substantially: participating media (the path tracer's
-//! `MEDIA`, chosen when the scene has a scattering volume). Spectral transport is chosen
-//! per sample (`Wavelengths`: RGB, whose conversions do nothing, or sampled wavelengths),
-//! which costs the RGB kernel 0.3% more instructions on the Cornell box.
+//! light sampling; no environment: nothing on escape; a Lambertian material: no GGX): the
+//! branches are cheap and predictable. Compile-time specialisation is kept for what changes
+//! per-segment work substantially: participating media (the path tracer's `MEDIA`, chosen
+//! when the scene has a scattering volume). Spectral transport is chosen per sample
+//! (`Wavelengths`: RGB, whose conversions do nothing, or sampled wavelengths). What these
+//! choices cost is measured in docs/performance.md.
 
 use super::Context;
 use super::aov::Aov;

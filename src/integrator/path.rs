@@ -249,9 +249,8 @@ const MAX_SURVIVAL: f32 = 0.995;
 
 /// Russian roulette from `rr_depth` bounces on: the path survives with the square root of
 /// its throughput times eta^2, capped below 1; false if it ends. The square root (Cycles'
-/// rule) ends dim paths later than the throughput itself (pbrt-v4's and Mitsuba's): on the
-/// Cornell boxes at 64 spp it traced 8% more rays per sample for 16% (box) and 14% (glass)
-/// less squared error (README, "Speed").
+/// rule) ends dim paths later than the throughput itself (pbrt-v4's and Mitsuba's), for
+/// less error at equal time (docs/performance.md).
 fn roulette(settings: &Settings, depth: u32, throughput: &mut Spectrum, eta_scale: f32, sampler: &mut Sampler) -> bool {
     let u_rr = sampler.next_1d();
     if depth >= settings.rr_depth {

@@ -113,7 +113,7 @@ crate::params! {
         sampler: SamplerKind = SamplerKind::Sobol, ["sampler", "sampler", Estimator, Domain::Choice(SamplerKind::CHOICES), always],
         /// Maximum bounces, as pbrt-v4's maxdepth: 0 emitters only, 1 direct light.
         max_depth: u32 = 7, ["max-depth", "max depth", Estimator, int(0, u32::MAX as u64), always],
-        /// Bounce from which Russian roulette may end paths (4: the least error at equal time on the Cornell box, README "Speed").
+        /// Bounce from which Russian roulette may end paths (4: the least error at equal time on the Cornell box).
         rr_depth: u32 = 4, ["rr-depth", "roulette from", Estimator, int(0, u32::MAX as u64), always],
         /// How camera rays sample the pixel area.
         pixel_sampling: PixelSampling = PixelSampling::Random, ["pixel-sampling", "pixel sampling", Estimator, Domain::Choice(PixelSampling::CHOICES), always],
@@ -180,8 +180,8 @@ impl Settings {
 
     /// Independent randomisations each pixel's samples are split among (`Sampler::replicated`):
     /// two for Sobol renders with a noise threshold, whose error must be estimated honestly
-    /// (`film::adaptive`); one otherwise, since on the Cornell box two replicates cost 1.5
-    /// to 1.7 times the squared error at 16 to 64 spp (README).
+    /// (`film::adaptive`); one otherwise, since two replicates cost more squared error
+    /// (docs/accuracy.md).
     pub fn replicates(&self) -> u32 {
         if self.noise_threshold.is_some() && self.sampler == SamplerKind::Sobol { 2 } else { 1 }
     }

@@ -81,8 +81,8 @@ pub struct Distribution1D {
     integral: f32,
     /// Guide table (Chen and Asau 1974): entry j is the piece holding u = j / G, for G + 1
     /// entries with G about a quarter of the pieces, so that inverting the CDF searches a
-    /// few neighbouring entries instead of bisecting the whole of it (the bisection's
-    /// dependent loads cost 12% of an environment-lit render, ToyCar).
+    /// few neighbouring entries instead of bisecting the whole of it (a bisection's loads
+    /// depend on each other).
     guide: Vec<u32>,
 }
 

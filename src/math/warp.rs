@@ -40,8 +40,7 @@ pub const UNIFORM_SPHERE_PDF: f32 = 0.25 * FRAC_1_PI;
 
 /// Concentric map of the unit square onto the unit disk (Shirley and Chiu 1997). The angle
 /// is pi/4 times a ratio in [-1, 1], or pi/2 less that, so cos and sin come from
-/// `sin_cos_quarter` on [-pi/4, pi/4], swapped in the second case: no libm call, whose
-/// `sincosf` was 2.7% of a Cornell box render's time.
+/// `sin_cos_quarter` on [-pi/4, pi/4], swapped in the second case: no libm `sincosf` call.
 pub fn concentric_disk(u: Vec2) -> Vec2 {
     let o = 2.0 * u - Vec2::ONE;
     if o == Vec2::ZERO {

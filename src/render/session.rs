@@ -298,8 +298,7 @@ impl RenderSession {
     /// that its next pass would not end by then (the first pass always runs). A render given
     /// a time budget thus takes no longer than it and computes no pass it then drops. Passes
     /// are not shortened to fill the time left: each shorter pass adds one more Sobol net
-    /// (`next_pass`), and on the Cornell box that did not lower the error at equal time
-    /// (RMSE 0.0055 to 0.0060 against 0.0055 to 0.0059, three seeds).
+    /// (`next_pass`), which did not lower the error at equal time (docs/performance.md).
     pub fn stop_at(&self, deadline: Instant) {
         self.shared.lock().deadline = Some(deadline);
         self.shared.wake.notify_all();
@@ -309,9 +308,8 @@ impl RenderSession {
     /// samples, rays, active pixels, time) and no images: `mean`, `variance`,
     /// `luminance_variance` and `pixel_spp` are empty and `aovs` is None. For callers that
     /// read only the last snapshot's images, as the command line's render does: building
-    /// them after every pass, on one thread while the workers wait, took 3% of a 64-spp
-    /// Cornell box render's time. Without a deadline its passes then run longer
-    /// (`BATCH_PASS`).
+    /// them after every pass happens on one thread while the workers wait. Without a
+    /// deadline its passes then run longer (`BATCH_PASS`).
     pub fn images_at_end_only(&self) {
         self.shared.lock().images_at_end = true;
     }
@@ -654,8 +652,7 @@ const INTERACTIVE_PASS: Duration = Duration::from_millis(100);
 
 /// How long a pass should take at least where only the last snapshot's images are read and
 /// no deadline is set (the command line's renders of a fixed count): at the end of every
-/// pass the workers wait for its last tile, and with four times longer passes a 64-spp
-/// Cornell box render took 0.995 of the time and ToyCar 0.973 (README, "Speed").
+/// pass the workers wait for its last tile, so fewer, longer passes wait less.
 const BATCH_PASS: Duration = Duration::from_millis(400);
 
 /// Samples in the pass after one of `pass` samples that took `took` and ended at sample

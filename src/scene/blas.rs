@@ -238,8 +238,8 @@ fn bvh_ray(ray: &Ray) -> BvhRay {
 /// `build_cwbvh` with the `medium_build` parameters (PLOC, Meister and Bittner 2018, then
 /// reinsertion, then the collapse to eight-wide nodes of Ylitie et al. 2017), except that the
 /// children are not put in the Morton order that picks a traversal order from the ray's
-/// octant: `wide` orders children by their entry distance, and without that step 1.04 M
-/// triangles build in 0.60 s instead of 0.70 to 0.73 (README, "Speed").
+/// octant: `wide` orders children by their entry distance, and the build is faster without
+/// that step (docs/performance.md).
 pub(super) fn build_bvh(boxes: &[Aabb]) -> (CwBvh, Duration) {
     if boxes.is_empty() {
         return (CwBvh::default(), Duration::default());

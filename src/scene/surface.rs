@@ -56,15 +56,14 @@ impl Scene {
     /// `surface` starts from: position, its error bound, the geometric normal and the
     /// texture coordinates (for emission textures). The shading normal is the geometric one
     /// and the vertex colour white: no normal map is sampled, since an emitter's sample reads
-    /// neither (2.5% of a Cornell render went to the full `surface` of light points).
+    /// neither.
     pub fn light_point(&self, tri: u32, b: [f32; 3]) -> Surface {
         self.geometry.with_triangle(tri, |p, a, extra| self.point_on(tri, b, p, a, extra))
     }
 
     /// What `light_point` gives that a light sample of uniform emission reads: the point,
     /// its error bound, the geometric normal and the material, without the texture
-    /// coordinates and the rest of a `Surface` (4% of a Cornell box sample's instructions
-    /// went to `light_point` and the area and emission lookups beside it).
+    /// coordinates and the rest of a `Surface`.
     #[inline]
     pub fn light_position(&self, tri: u32, b: [f32; 3]) -> (Vec3, Vec3, Vec3, u32) {
         self.geometry.with_triangle(tri, |p, a, _| {
