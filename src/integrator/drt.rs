@@ -71,19 +71,20 @@ fn trace(
     } else {
         Spectrum::ONE
     };
-    let (emission, step) = arrive(cx, (&ray, &hit), media, bounces, &mut Wavelengths::Rgb, aov);
+    let mut slot = None;
+    let (emission, step) = arrive(cx, (&ray, &hit), media, bounces, (&mut Wavelengths::Rgb, aov), &mut slot);
     let mut radiance = emission.unwrap_or(Spectrum::ZERO);
-    let vertex = match step {
-        Step::Scatter(vertex) => vertex,
-        Step::Pass { weight, ray, media } => {
+    let vertex = match (step, &slot) {
+        (Step::Scatter, Some(vertex)) => vertex,
+        (Step::Pass { weight, ray, media }, _) => {
             let arriving =
                 trace(cx, (ray, media), Bounces { travelled: travelled + hit.t, ..bounces }, sampler, out, aov);
             return (radiance + weight * arriving) * absorbed;
         }
-        Step::End => return radiance * absorbed,
+        _ => return radiance * absorbed,
     };
     if settings.light_sampling != LightSampling::Off && !scene.light_sampler.is_empty() {
-        let direct = sample_direct(cx, &vertex, sampler, &Wavelengths::Rgb);
+        let direct = sample_direct(cx, vertex, sampler, &Wavelengths::Rgb);
         radiance += direct.radiance;
         out.rays += direct.shadow_ray as u32;
         out.shadow_rays += direct.shadow_ray as u32;

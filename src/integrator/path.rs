@@ -3,11 +3,15 @@
 //! roulette on the square root of the throughput times eta^2 (pbrt-v4's etaScale, so that
 //! radiance scaled by refraction into glass does not end paths early).
 //!
-//! With `MEDIA` it is the volumetric path tracer (pbrt-v4's VolPathIntegrator for
-//! homogeneous media): inside a scattering volume a free-flight distance is sampled on every
-//! segment (`medium::sample_flight`); where light scatters, a light is sampled with the phase
-//! function and MIS, and the phase function gives the next direction. A scattering event
-//! counts as a bounce toward `max_depth` and meets Russian roulette like a surface vertex.
+//! With `MEDIA` it is the volumetric path tracer (pbrt-v4's VolPathIntegrator): inside a
+//! scattering volume a free flight is sampled on every segment (`media::flight`); where light
+//! scatters, a light is sampled with the phase function and MIS, and the phase function
+//! gives the next direction. A scattering event counts as a bounce toward `max_depth` and
+//! meets Russian roulette like a surface vertex.
+//!
+//! The loop's phases: a medium along the segment, escape to the environment, the surface
+//! (`vertex::arrive`: the light it emits, then a vertex, passing straight through, or the
+//! end), light sampling, BSDF sampling and roulette.
 //!
 //! Surfaces with a null lobe (index-matched interfaces, smooth thin walls passed straight
 //! through) are crossed without a bounce: the last real vertex stays the reference of the MIS
@@ -26,10 +30,10 @@ use super::mis::Scattered;
 use super::nan::{NanCause, check};
 use super::scatter::Sampling;
 use super::settings::{LightSampling, Settings};
-use super::vertex::{Bounces, Step, Vertex, arrive};
-use crate::bsdf::{BsdfSample, LobeFlags};
+use super::vertex::{Bounces, Step, arrive};
+use crate::bsdf::LobeFlags;
 use crate::math::sampler::Sampler;
-use crate::medium::{Flight, Volume};
+use crate::medium::Flight;
 use crate::scene::geometry::Ray;
 use crate::spectrum::{Spectrum, Wavelengths};
 
@@ -41,203 +45,134 @@ const MAX_CROSSINGS: u32 = 256;
 /// `MEDIA` its `VolPathIntegrator::Li`).
 pub fn radiance<const MEDIA: bool>(
     cx: Context,
-    ray: Ray,
-    media: Media,
+    mut ray: Ray,
+    mut media: Media,
     sampler: &mut Sampler,
     wl: &mut Wavelengths,
     aovs: bool,
 ) -> PathOutput {
     let Context { scene, settings } = cx;
-    let mut path = Path::new(ray, media, aovs);
+    let mut out = PathOutput::default();
+    let mut aov = AovTrace::new(aovs);
+    let mut throughput = Spectrum::ONE;
+    // The product of eta^2 over the refractions (pbrt-v4's etaScale), for roulette.
+    let mut eta_scale = 1.0f32;
+    let mut bounces = Bounces { depth: 0, travelled: 0.0, last: None };
+    // Surfaces crossed without a bounce.
+    let mut crossings = 0u32;
     let sampling = Sampling::new(settings.importance_sampling);
     let sample_lights = settings.light_sampling != LightSampling::Off && !scene.light_sampler.is_empty();
     loop {
-        path.out.rays += 1;
-        let hit = scene.intersect(&path.ray, settings.watertight, path.bounces.depth == 0);
+        out.rays += 1;
+        let hit = scene.intersect(&ray, settings.watertight, bounces.depth == 0);
 
-        // A scattering medium along the segment: where light scatters first, if before the surface.
-        if MEDIA && let Some(volume) = path.media.volume(&scene.materials).filter(|v| v.scatters()) {
-            let t_max = hit.map_or(f32::INFINITY, |h| h.t * path.ray.d.length());
-            match flight(scene, &volume, (&path.ray, t_max), path.throughput, sampler, wl) {
+        // A scattering medium: where it scatters the path first, if before the surface.
+        if MEDIA && let Some(volume) = media.volume(&scene.materials).filter(|v| v.scatters()) {
+            let length = ray.d.length();
+            let t_max = hit.map_or(f32::INFINITY, |h| h.t * length);
+            match flight(scene, &volume, (&ray, t_max), throughput, sampler, wl) {
+                Flight::Pass { weight } => throughput *= weight,
                 Flight::Scatter { t, weight } => {
-                    if !path.scatter_in_medium(cx, (&volume, t, weight), sample_lights, sampler, wl) {
+                    throughput *= weight;
+                    aov.medium(volume.albedo, -ray.d / length);
+                    if bounces.depth == settings.max_depth {
+                        break;
+                    }
+                    let (wo, p, phase) = (-ray.d / length, ray.o + ray.d * (t / length), volume.phase());
+                    if sample_lights {
+                        add_direct(&mut out, throughput, sample_medium(cx, (p, wo), phase, media, sampler, wl));
+                    }
+                    let next = phase.sample(wo, sampler.next_2d());
+                    let last = Some(Scattered { pdf: next.pdf, specular: false });
+                    bounces = Bounces { depth: bounces.depth + 1, travelled: 0.0, last };
+                    ray = Ray { o: p, d: next.wi, tmax: f32::INFINITY };
+                    if !roulette(settings, bounces.depth, &mut throughput, eta_scale, sampler) {
                         break;
                     }
                     continue;
                 }
-                Flight::Pass { weight } => path.throughput *= weight,
             }
         } else if let Some(hit) = hit
             && scene.features.volumes
         {
-            let sigma_t = wl.reflectance(path.media.sigma_t(&scene.materials));
-            path.throughput *= transmittance(sigma_t, hit.t * path.ray.d.length());
+            throughput *= transmittance(wl.reflectance(media.sigma_t(&scene.materials)), hit.t * ray.d.length());
         }
 
         // Escaped: light from the environment.
         let Some(hit) = hit else {
-            path.out.radiance += path.throughput * escaped(cx, path.ray.d, path.bounces.last, &path.media, wl);
+            out.radiance += throughput * escaped(cx, ray.d, bounces.last, &media, wl);
             break;
         };
 
         // The surface: the light it emits, then a vertex, passing straight through, or the end.
-        let (emission, step) = arrive(cx, (&path.ray, &hit), path.media, path.bounces, wl, &mut path.aov);
+        let mut slot = None;
+        let (emission, step) = arrive(cx, (&ray, &hit), media, bounces, (wl, &mut aov), &mut slot);
         if let Some(le) = emission {
-            path.out.radiance += path.throughput * le;
+            out.radiance += throughput * le;
         }
-        let vertex = match step {
-            Step::Scatter(vertex) => vertex,
-            Step::Pass { weight, ray, media } => {
-                if !path.pass(weight, (ray, media), hit.t, wl) {
+        let vertex = match (step, &slot) {
+            (Step::Scatter, Some(vertex)) => vertex,
+            (Step::Pass { weight, ray: beyond, media: around }, _) => {
+                crossings += 1;
+                if crossings > MAX_CROSSINGS {
                     break;
                 }
+                throughput *= wl.reflectance(weight);
+                bounces.travelled += hit.t;
+                (ray, media) = (beyond, around);
                 continue;
             }
-            Step::End => break,
+            _ => break,
         };
 
         // Light sampling: one shadow ray towards a light chosen by power, traced after the
         // BSDF's direction is drawn and computed, so that the two overlap (the numbers are
         // drawn in the same order either way, unless the shadow ray's volumes draw too).
-        let light = if sample_lights { sample_light(cx, &vertex, sampler) } else { None };
+        let light = if sample_lights { sample_light(cx, vertex, sampler) } else { None };
         let u_lobe = sampler.next_1d();
         let u = sampler.next_2d();
         let sampled = sampling.sample(&vertex.bsdf, vertex.wo, u_lobe, u);
         if let Some(light) = light {
-            path.add_direct(light.trace(cx, sampler, wl));
+            add_direct(&mut out, throughput, light.trace(cx, sampler, wl));
         }
 
         // BSDF sampling: the next segment, and Russian roulette.
         let Some(bs) = sampled else { break };
-        if !path.bounce(cx, &vertex, bs, hit.t, sampler, wl) {
+        check(NanCause::BsdfSample, bs.weight);
+        let Some((d, origin, crosses)) = vertex.leave(bs.wi) else { break };
+        throughput *= wl.reflectance(bs.weight);
+        aov.delta(bs.weight, bs.eta);
+        media = vertex.media_after(scene, crosses);
+        ray = Ray { o: origin, d, tmax: f32::INFINITY };
+        if bs.flags.contains(LobeFlags::NULL) {
+            // Crossed without a bounce: the last vertex stays the reference of MIS.
+            crossings += 1;
+            if crossings > MAX_CROSSINGS {
+                break;
+            }
+            bounces.travelled += hit.t;
+            continue;
+        }
+        if bs.is_transmission() {
+            eta_scale *= bs.eta * bs.eta;
+        }
+        let last = Some(Scattered { pdf: bs.pdf, specular: bs.is_specular() });
+        bounces = Bounces { depth: bounces.depth + 1, travelled: 0.0, last };
+        if !roulette(settings, bounces.depth, &mut throughput, eta_scale, sampler) {
             break;
         }
     }
-    path.out.aov = path.aov.finish();
-    path.out
+    out.aov = aov.finish();
+    out
 }
 
-/// A path's state between its segments.
-struct Path {
-    /// What it has gathered so far.
-    out: PathOutput,
-    /// The denoiser's AOVs.
-    aov: AovTrace,
-    /// Its throughput.
-    throughput: Spectrum,
-    /// The product of eta^2 over its refractions (pbrt-v4's etaScale), for roulette.
-    eta_scale: f32,
-    /// Its bounces, and how the current ray was sampled.
-    bounces: Bounces,
-    /// Surfaces crossed without a bounce.
-    crossings: u32,
-    /// The current ray.
-    ray: Ray,
-    /// The volumes the current ray is in.
-    media: Media,
-}
-
-impl Path {
-    fn new(ray: Ray, media: Media, aovs: bool) -> Self {
-        Self {
-            out: PathOutput::default(),
-            aov: AovTrace::new(aovs),
-            throughput: Spectrum::ONE,
-            eta_scale: 1.0,
-            bounces: Bounces { depth: 0, travelled: 0.0, last: None },
-            crossings: 0,
-            ray,
-            media,
-        }
-    }
-
-    /// Adds a light sample's contribution.
-    #[inline(always)]
-    fn add_direct(&mut self, direct: DirectLight) {
-        check(NanCause::LightSample, direct.radiance);
-        self.out.radiance += self.throughput * direct.radiance;
-        self.out.rays += direct.shadow_ray as u32;
-        self.out.shadow_rays += direct.shadow_ray as u32;
-    }
-
-    /// Light passes straight through a surface with `weight`, on along `ray` in `media`, the
-    /// current ray having reached it after `t`; false if the path has crossed too many.
-    #[inline(always)]
-    fn pass(&mut self, weight: Spectrum, (ray, media): (Ray, Media), t: f32, wl: &Wavelengths) -> bool {
-        self.crossings += 1;
-        if self.crossings > MAX_CROSSINGS {
-            return false;
-        }
-        self.throughput *= wl.reflectance(weight);
-        self.bounces.travelled += t;
-        self.media = media;
-        self.ray = ray;
-        true
-    }
-
-    /// The volume scatters the path `t` along its ray with `weight`: light sampling with
-    /// the phase function, then the phase function's direction; false if the path ends.
-    #[inline(always)]
-    fn scatter_in_medium(
-        &mut self,
-        cx: Context,
-        (volume, t, weight): (&Volume, f32, Spectrum),
-        sample_lights: bool,
-        sampler: &mut Sampler,
-        wl: &Wavelengths,
-    ) -> bool {
-        let length = self.ray.d.length();
-        self.throughput *= weight;
-        self.aov.medium(volume.albedo, -self.ray.d / length);
-        if self.bounces.depth == cx.settings.max_depth {
-            return false;
-        }
-        let wo = -self.ray.d / length;
-        let p = self.ray.o + self.ray.d * (t / length);
-        let phase = volume.phase();
-        if sample_lights {
-            self.add_direct(sample_medium(cx, (p, wo), phase, self.media, sampler, wl));
-        }
-        let next = phase.sample(wo, sampler.next_2d());
-        self.bounces.last = Some(Scattered { pdf: next.pdf, specular: false });
-        self.bounces.travelled = 0.0;
-        self.ray = Ray { o: p, d: next.wi, tmax: f32::INFINITY };
-        self.bounces.depth += 1;
-        roulette(cx.settings, self.bounces.depth, &mut self.throughput, self.eta_scale, sampler)
-    }
-
-    /// The path leaves `vertex`, which its ray reached after `t`, along the BSDF sample
-    /// `bs`; false if it ends (a direction the surface blocks, too many crossings, roulette).
-    #[inline(always)]
-    fn bounce(
-        &mut self,
-        cx: Context,
-        vertex: &Vertex,
-        bs: BsdfSample,
-        t: f32,
-        sampler: &mut Sampler,
-        wl: &Wavelengths,
-    ) -> bool {
-        check(NanCause::BsdfSample, bs.weight);
-        let Some((d, origin, crosses)) = vertex.leave(bs.wi) else { return false };
-        self.throughput *= wl.reflectance(bs.weight);
-        self.aov.delta(bs.weight, bs.eta);
-        self.media = vertex.media_after(cx.scene, crosses);
-        self.ray = Ray { o: origin, d, tmax: f32::INFINITY };
-        if bs.flags.contains(LobeFlags::NULL) {
-            // Crossed without a bounce: the last vertex stays the reference of MIS.
-            self.crossings += 1;
-            self.bounces.travelled += t;
-            return self.crossings <= MAX_CROSSINGS;
-        }
-        if bs.is_transmission() {
-            self.eta_scale *= bs.eta * bs.eta;
-        }
-        self.bounces.last = Some(Scattered { pdf: bs.pdf, specular: bs.is_specular() });
-        self.bounces.travelled = 0.0;
-        self.bounces.depth += 1;
-        roulette(cx.settings, self.bounces.depth, &mut self.throughput, self.eta_scale, sampler)
-    }
+/// Adds a light sample's contribution, through the path's `throughput`.
+#[inline(always)]
+fn add_direct(out: &mut PathOutput, throughput: Spectrum, direct: DirectLight) {
+    check(NanCause::LightSample, direct.radiance);
+    out.radiance += throughput * direct.radiance;
+    out.rays += direct.shadow_ray as u32;
+    out.shadow_rays += direct.shadow_ray as u32;
 }
 
 /// Highest survival probability of Russian roulette. Below 1, so that a path whose

@@ -121,12 +121,10 @@ pub struct Bounces {
     pub last: Option<Scattered>,
 }
 
-/// What a path does after meeting a surface. The vertex is large, but it is moved once
-/// into the loop's binding, and a box would allocate at every bounce.
-#[allow(clippy::large_enum_variant)]
-pub enum Step<'a> {
-    /// Scatter at this vertex.
-    Scatter(Vertex<'a>),
+/// What a path does after meeting a surface.
+pub enum Step {
+    /// Scatter at the vertex `arrive` built in the caller's slot.
+    Scatter,
     /// No bounce is left, but light passes straight through (a null lobe) with `weight`,
     /// on along `ray` in `media`.
     Pass {
@@ -142,17 +140,19 @@ pub enum Step<'a> {
 }
 
 /// The ray `ray`, in `media`, meets the surface of `hit`: the radiance its front emits back
-/// along the ray (None from behind), weighted against light sampling, and the next step;
-/// the AOV trace records the vertex. At `max_depth` the vertex is built only where light
-/// may pass straight through it (or the AOVs still need it).
+/// along the ray (None from behind), weighted against light sampling, and the next step.
+/// The vertex is built in the caller's `slot` (so that it is not moved: it is large); the
+/// AOV trace records it. At `max_depth` the vertex is built only where light may pass
+/// straight through it (or the AOVs still need it).
+#[inline(always)]
 pub fn arrive<'a>(
     cx: Context<'a>,
     (ray, hit): (&Ray, &Hit),
     media: Media,
     bounces: Bounces,
-    wl: &mut Wavelengths,
-    aov: &mut AovTrace,
-) -> (Option<Spectrum>, Step<'a>) {
+    (wl, aov): (&mut Wavelengths, &mut AovTrace),
+    slot: &mut Option<Vertex<'a>>,
+) -> (Option<Spectrum>, Step) {
     let Context { scene, settings } = cx;
     let surface = scene.surface(hit);
     let Bounces { depth, travelled, last } = bounces;
@@ -164,10 +164,10 @@ pub fn arrive<'a>(
         }
         return (emission, Step::End);
     }
-    let vertex = Vertex::new(cx, surface, ray.d, media, wl);
-    aov.surface(&vertex);
+    let vertex = slot.insert(Vertex::new(cx, surface, ray.d, media, wl));
+    aov.surface(vertex);
     if depth < settings.max_depth {
-        return (emission, Step::Scatter(vertex));
+        return (emission, Step::Scatter);
     }
     // No bounce is left, but light passing straight through still goes on.
     match vertex.bsdf.null_transmission(vertex.wo).filter(|p| !p.is_black()) {
