@@ -460,8 +460,8 @@ fn instanced_copies_render_as_their_flattened_copies() {
     };
     let ((instanced, placements), (flattened, none)) = (render(Instancing::Always), render(Instancing::Never));
     assert_eq!((placements, none), (4, 0));
-    let z = common::sidak_z(1e-3, common::blocks(&flattened).len() * 3);
-    common::assert_blocks_agree(&instanced, &flattened, z, "instanced against flattened");
+    let z = common::sidak_z(1e-3, common::blocks(&flattened, 8).len() * 3);
+    common::assert_blocks_agree(&instanced, &flattened, 8, z, "instanced against flattened");
 }
 
 #[test]
