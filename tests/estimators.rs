@@ -9,7 +9,7 @@
 mod common;
 
 use lucent::integrator::{LightSampling, PixelSampling, SamplerKind, Settings};
-use lucent::loader::{builtin, gltf};
+use lucent::loader::builtin;
 use lucent::scene::Scene;
 use std::sync::Arc;
 
@@ -89,8 +89,7 @@ fn explicit_and_no_light_sampling_agree_with_mis_on_the_glass_box() {
     // Delta lobes: no light is sampled at the mirror or the glass, and light found after
     // them counts in full in every mode. Had explicit sampling dropped it (as before delta
     // lobes existed), the mirror sphere would show no lamp and the caustic would vanish.
-    let desc = gltf::load(&common::asset("cornell-box-glass.gltf")).unwrap();
-    let scene = Arc::new(Scene::build(desc));
+    let scene = Arc::new(Scene::build(common::load("cornell-box-glass.gltf")));
     let size = 64;
     let camera = scene.default_camera(1.0);
     let glass = |importance, lights, seed, spp| Settings {

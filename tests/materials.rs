@@ -7,7 +7,6 @@ mod common;
 
 use glam::{DVec3, Vec2, Vec3};
 use lucent::integrator::Settings;
-use lucent::loader::gltf;
 use lucent::render::Snapshot;
 use lucent::scene::environment::{EnvSettings, Environment};
 use lucent::scene::{
@@ -19,8 +18,7 @@ use lucent::scene::{
 use std::sync::Arc;
 
 fn glass_scene() -> Arc<Scene> {
-    let desc = gltf::load(&common::asset("cornell-box-glass.gltf")).unwrap();
-    Arc::new(Scene::build(desc))
+    Arc::new(Scene::build(common::load("cornell-box-glass.gltf")))
 }
 
 /// A point given in the file's coordinates (the box spans [0, 0.556] x [0, 0.549] x [0, 0.559]
@@ -123,7 +121,7 @@ fn absorption_inside_a_volume_follows_beer_lambert() {
     assert!((thick - (-1.5f64).exp()).abs() < 2e-3, "1.5 units: {thick}");
     assert!((thick / thin - (-1.0f64).exp()).abs() < 5e-3, "ratio {}", thick / thin);
     // attenuationColor c after attenuationDistance d: sigma = -ln(c) / d, per channel.
-    let desc = gltf::load(&common::asset("AttenuationTest/glTF-Binary/AttenuationTest.glb")).unwrap();
+    let desc = common::load("AttenuationTest/glTF-Binary/AttenuationTest.glb");
     let volumes: Vec<Vec3> = desc.materials.iter().filter_map(|m| m.volume.map(|v| v.sigma_t)).collect();
     assert!(!volumes.is_empty() && volumes.iter().all(|s| s.is_finite() && s.min_element() >= 0.0));
     assert!(volumes.iter().any(|s| s.max_element() > 0.0), "some volume absorbs: {volumes:?}");
@@ -253,7 +251,7 @@ fn specular_colour_factors_above_one_raise_f0_as_khr_materials_specular_says() {
     // specularColorFactor is 0, 1.184, 5.441, 13.276 and 25. The extension clamps only the
     // product: F0 = min(0.04 x factor, 1). Seen head-on under a white sky, a sphere's front
     // reflects the sky behind the camera with F0 (Schlick's term is 1e-12 of it there).
-    let desc = gltf::load(&common::asset("SpecularTest/glTF-Binary/SpecularTest.glb")).unwrap();
+    let desc = common::load("SpecularTest/glTF-Binary/SpecularTest.glb");
     let hdr: Vec<(u32, f32)> = (desc.materials.iter().enumerate())
         .filter(|(_, m)| m.name.starts_with("M7."))
         .map(|(i, m)| (i as u32, m.specular_color.x))

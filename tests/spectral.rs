@@ -173,7 +173,7 @@ fn spectral_and_rgb_agree_where_each_path_carries_one_colour() {
 
 #[test]
 fn a_textured_model_under_a_white_sky_agrees_in_rgb_and_spectral() {
-    let desc = lucent::loader::gltf::load(&common::asset("BoxTextured/glTF-Binary/BoxTextured.glb")).unwrap();
+    let desc = common::load("BoxTextured/glTF-Binary/BoxTextured.glb");
     let white = Environment::load(EnvSettings { background: Vec3::ONE, ..EnvSettings::default() }).unwrap();
     let scene = Arc::new(Scene::build(desc).with_environment(Some(white)));
     assert!(scene.features.textures);

@@ -4,15 +4,16 @@
 
 use glam::DVec3;
 use lucent::integrator::{LightSampling, Settings};
+use lucent::loader::gltf;
 use lucent::render::{Job, RenderSession, Snapshot};
-use lucent::scene::{Scene, camera::Camera};
+use lucent::scene::{Scene, SceneDesc, camera::Camera};
 use statrs::distribution::{ChiSquared, ContinuousCDF, Normal};
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 /// A file under tests/assets (see its INDEX.md).
-pub fn asset(rel: &str) -> PathBuf {
+pub fn asset(rel: impl AsRef<Path>) -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/assets").join(rel)
 }
 
@@ -309,4 +310,11 @@ pub fn switches(base: Settings) -> impl Iterator<Item = (String, Settings)> {
         let label = format!("importance {importance_sampling}, lights {light_sampling:?}");
         (label, Settings { importance_sampling, light_sampling, ..base })
     })
+}
+
+/// The scene of the glTF file at `path` (relative: under tests/assets), panicking with the loader's error.
+pub fn load(path: impl AsRef<Path>) -> SceneDesc {
+    let path = path.as_ref();
+    let path = if path.is_absolute() { path.to_path_buf() } else { asset(path) };
+    gltf::load(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
 }
