@@ -349,16 +349,10 @@ fn albedo(bsdf: &Bsdf, wo: Vec3, n: usize, sampler: &mut Sampler) -> (f64, f64) 
         Bsdf::MetalRough(m) if !m.thin => (m.eta * m.eta) as f64,
         _ => 1.0,
     };
-    let (mut sum, mut sum_sq) = (0.0f64, 0.0f64);
-    for _ in 0..n {
-        let w = bsdf
-            .sample(wo, sampler.next_1d(), sampler.next_2d(), TransportMode::Radiance)
-            .map_or(0.0, |s| s.weight.max_element() as f64 * if s.wi.z < 0.0 { eta2 } else { 1.0 });
-        sum += w;
-        sum_sq += w * w;
-    }
-    let mean = sum / n as f64;
-    (mean, ((sum_sq / n as f64 - mean * mean).max(0.0) / n as f64).sqrt())
+    common::mean_and_se(n, || {
+        bsdf.sample(wo, sampler.next_1d(), sampler.next_2d(), TransportMode::Radiance)
+            .map_or(0.0, |s| s.weight.max_element() as f64 * if s.wi.z < 0.0 { eta2 } else { 1.0 })
+    })
 }
 
 /// White-furnace test of the multiple-scattering compensation: a metal with F0 = 1 reflects
@@ -439,15 +433,10 @@ fn bsdfs_conserve_energy_and_are_reciprocal() {
 /// Single-scattering albedo of GGX with F = 1 at `wo`, by VNDF sampling (weight G2 / G1):
 /// mean and standard error.
 fn single_scattering_albedo(ggx: Ggx, wo: Vec3, n: usize, sampler: &mut Sampler) -> (f64, f64) {
-    let (mut sum, mut sum_sq) = (0.0f64, 0.0f64);
-    for _ in 0..n {
+    common::mean_and_se(n, || {
         let wi = reflect(wo, ggx.sample_visible_normal(wo, sampler.next_2d()));
-        let w = if wi.z > 0.0 { (ggx.g2(wo, wi) / ggx.g1(wo)) as f64 } else { 0.0 };
-        sum += w;
-        sum_sq += w * w;
-    }
-    let mean = sum / n as f64;
-    (mean, ((sum_sq / n as f64 - mean * mean).max(0.0) / n as f64).sqrt())
+        if wi.z > 0.0 { (ggx.g2(wo, wi) / ggx.g1(wo)) as f64 } else { 0.0 }
+    })
 }
 
 /// Energy of the anisotropic white metal (F0 = 1). Single scattering loses E_aniso(wo) < 1;

@@ -266,6 +266,18 @@ pub fn assert_blocks_agree(test: &Snapshot, reference: &Snapshot, block: u32, z_
     assert_block_means_agree(&blocks(test, block), &blocks(reference, block), 0..3, 0.0, z_max, label)
 }
 
+/// The mean of `n` values of `draw` and its standard error, from their sample variance.
+pub fn mean_and_se(n: usize, mut draw: impl FnMut() -> f64) -> (f64, f64) {
+    let (mut sum, mut sum_sq) = (0.0f64, 0.0f64);
+    for _ in 0..n {
+        let w = draw();
+        sum += w;
+        sum_sq += w * w;
+    }
+    let mean = sum / n as f64;
+    (mean, ((sum_sq / n as f64 - mean * mean).max(0.0) / n as f64).sqrt())
+}
+
 /// Per-channel mean of a render's pixels and its standard error, sqrt(sum of pixel variances) / pixels.
 pub fn image_mean(s: &Snapshot) -> (DVec3, DVec3) {
     let n = s.mean.len() as f64;
