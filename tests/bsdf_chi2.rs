@@ -93,6 +93,23 @@ fn metal_rough(base: Spectrum, metallic: f32, roughness: f32) -> Bsdf<'static> {
 }
 
 /// The glTF BRDF with KHR_materials_specular weight `specular` and ior 1.5.
+/// Asserts each case's samples by its strategy match that strategy's pdf (chi-square, case i
+/// seeded `seed + i`), at family-wise significance 0.01 (Sidak).
+fn assert_samplings_match<'a>(
+    cases: impl ExactSizeIterator<Item = (&'a str, &'a Bsdf<'a>, Vec3, Sampling)>,
+    seed: u64,
+) {
+    let alpha = common::sidak_alpha(0.01, cases.len());
+    let failures: Vec<String> = cases
+        .enumerate()
+        .filter_map(|(i, (label, bsdf, wo, strategy))| {
+            let p = p_value(bsdf, wo, strategy, strategy, seed + i as u64);
+            (p < alpha).then(|| format!("{label}: p = {p:.2e} < {alpha:.2e}"))
+        })
+        .collect();
+    assert!(failures.is_empty(), "chi-square rejections:\n{}", failures.join("\n"));
+}
+
 fn with_specular(base: Spectrum, metallic: f32, roughness: f32, specular: f32) -> Bsdf<'static> {
     Bsdf::MetalRough(MetalRough { base, metallic, alpha: alpha(roughness), specular, ..MetalRough::default() })
 }
@@ -213,16 +230,7 @@ fn sampling_routines_match_their_pdfs() {
         let label = format!("measured (MERL table of a glossy BRDF), theta_o {theta_o}");
         cases.push((label, Bsdf::Measured(&measured), from_angles(theta_o), Sampling::Importance));
     }
-    let alpha = 1.0 - (1.0 - 0.01f64).powf(1.0 / cases.len() as f64);
-    let failures: Vec<String> = cases
-        .iter()
-        .enumerate()
-        .filter_map(|(i, (label, bsdf, wo, strategy))| {
-            let p = p_value(bsdf, *wo, *strategy, *strategy, i as u64);
-            (p < alpha).then(|| format!("{label}: p = {p:.2e} < {alpha:.2e}"))
-        })
-        .collect();
-    assert!(failures.is_empty(), "chi-square rejections:\n{}", failures.join("\n"));
+    assert_samplings_match(cases.iter().map(|(label, bsdf, wo, strategy)| (label.as_str(), bsdf, *wo, *strategy)), 0);
 }
 
 /// KHR_materials_clearcoat's clearcoatNormalTexture: the coat's GGX lobe about its own
@@ -269,16 +277,10 @@ fn tilted_clearcoat_sampling_matches_its_pdf() {
             from_polar(0.7, 0.5),
         ));
     }
-    let alpha = 1.0 - (1.0 - 0.01f64).powf(1.0 / cases.len() as f64);
-    let failures: Vec<String> = cases
-        .iter()
-        .enumerate()
-        .filter_map(|(i, (label, bsdf, wo))| {
-            let p = p_value(bsdf, *wo, Sampling::Importance, Sampling::Importance, 500 + i as u64);
-            (p < alpha).then(|| format!("{label}: p = {p:.2e} < {alpha:.2e}"))
-        })
-        .collect();
-    assert!(failures.is_empty(), "chi-square rejections:\n{}", failures.join("\n"));
+    assert_samplings_match(
+        cases.iter().map(|(label, bsdf, wo)| (label.as_str(), bsdf, *wo, Sampling::Importance)),
+        500,
+    );
 }
 
 /// Outgoing direction at polar angle `theta` and azimuth `phi` from the local x axis (an
@@ -319,16 +321,10 @@ fn anisotropic_sampling_matches_its_pdf() {
             cases.push((label, Bsdf::MetalRough(glass), from_polar(1.0, phi_o)));
         }
     }
-    let alpha = 1.0 - (1.0 - 0.01f64).powf(1.0 / cases.len() as f64);
-    let failures: Vec<String> = cases
-        .iter()
-        .enumerate()
-        .filter_map(|(i, (label, bsdf, wo))| {
-            let p = p_value(bsdf, *wo, Sampling::Importance, Sampling::Importance, 100 + i as u64);
-            (p < alpha).then(|| format!("{label}: p = {p:.2e} < {alpha:.2e}"))
-        })
-        .collect();
-    assert!(failures.is_empty(), "chi-square rejections:\n{}", failures.join("\n"));
+    assert_samplings_match(
+        cases.iter().map(|(label, bsdf, wo)| (label.as_str(), bsdf, *wo, Sampling::Importance)),
+        100,
+    );
 }
 
 #[test]

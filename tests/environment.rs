@@ -41,7 +41,7 @@ fn direction(theta: f64, phi: f64) -> Vec3 {
 fn the_map_density_passes_a_chi_square_test() {
     // Rotations by a multiple of the texel width keep texels aligned with the bins.
     let rotations = [0.0, 90.0, -45.0];
-    let alpha = 1.0 - 0.99f64.powf(1.0 / rotations.len() as f64);
+    let alpha = common::sidak_alpha(0.01, rotations.len());
     for rotation in rotations {
         let env = sky(rotation);
         let (dt, dp) = (PI / THETA_BINS as f64, 2.0 * PI / PHI_BINS as f64);

@@ -24,7 +24,7 @@ fn henyey_greenstein_sampling_matches_its_pdf() {
     let wo = Vec3::new(0.3, -0.5, 0.81).normalize();
     let frame = lucent::math::frame::Frame::from_normal(-wo);
     let gs = [-0.9f32, -0.3, 0.0, 0.3, 0.9];
-    let alpha = 1.0 - (1.0 - 0.01f64).powf(1.0 / gs.len() as f64);
+    let alpha = common::sidak_alpha(0.01, gs.len());
     for (k, g) in gs.into_iter().enumerate() {
         let hg = HenyeyGreenstein { g };
         let mut sampler = Sampler::new(UVec2::new(3, k as u32), 0, 17);

@@ -83,11 +83,14 @@ pub fn render(scene: &Arc<Scene>, camera: Camera, settings: Settings, threads: O
     RenderSession::new(job, threads).expect("valid settings").wait_until_done()
 }
 
-/// Two-sided z threshold for a family of `tests` tests at family-wise significance `alpha`,
-/// with the Sidak correction: each test runs at 1 - (1 - alpha)^(1/tests).
+/// Significance of each of `tests` tests for family-wise significance `alpha` (Sidak): 1 - (1 - alpha)^(1/tests).
+pub fn sidak_alpha(alpha: f64, tests: usize) -> f64 {
+    1.0 - (1.0 - alpha).powf(1.0 / tests as f64)
+}
+
+/// Two-sided z threshold for a family of `tests` tests at family-wise significance `alpha` (Sidak).
 pub fn sidak_z(alpha: f64, tests: usize) -> f64 {
-    let per_test = 1.0 - (1.0 - alpha).powf(1.0 / tests as f64);
-    Normal::new(0.0, 1.0).unwrap().inverse_cdf(1.0 - per_test / 2.0)
+    Normal::new(0.0, 1.0).unwrap().inverse_cdf(1.0 - sidak_alpha(alpha, tests) / 2.0)
 }
 
 /// Expected sample counts of `samples` draws from a solid-angle `density(theta, phi)` in
