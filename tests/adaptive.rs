@@ -116,7 +116,7 @@ fn the_error_estimate_is_honest_for_both_samplers_and_the_old_one_overstates_sob
     // must fall below the lower bound, i.e. overstate the error (shown without the control
     // variate for seen lights' edges, which makes the edge pixels exact).
     let seeds = 48;
-    let alpha = 1.0 - (1.0 - 1e-3f64).powf(1.0 / 3.0);
+    let alpha = common::sidak_alpha(1e-3, 3);
     let base = Settings { width: 16, height: 16, target_spp: Some(64), ..Settings::default() };
     let honest = |s: &Snapshot, p: usize| s.luminance_variance[p] as f64;
     let readout = |s: &Snapshot, p: usize| (0..3).map(|c| LUMINANCE[c].powi(2) * s.variance[p][c] as f64).sum();

@@ -6,7 +6,6 @@ mod common;
 
 use glam::Vec3;
 use lucent::integrator::Settings;
-use lucent::loader::gltf;
 use lucent::scene::{
     Scene,
     light::{PunctualKind, PunctualLight},
@@ -14,7 +13,7 @@ use lucent::scene::{
 use std::sync::Arc;
 
 fn render_without_nan(rel: &str) {
-    let mut desc = gltf::load(&common::asset(rel)).unwrap_or_else(|e| panic!("{e}"));
+    let mut desc = common::load(rel);
     if desc.lights.is_empty() {
         desc.lights.push(PunctualLight {
             name: "sun".into(),

@@ -93,6 +93,23 @@ fn metal_rough(base: Spectrum, metallic: f32, roughness: f32) -> Bsdf<'static> {
 }
 
 /// The glTF BRDF with KHR_materials_specular weight `specular` and ior 1.5.
+/// Asserts each case's samples by its strategy match that strategy's pdf (chi-square, case i
+/// seeded `seed + i`), at family-wise significance 0.01 (Sidak).
+fn assert_samplings_match<'a>(
+    cases: impl ExactSizeIterator<Item = (&'a str, &'a Bsdf<'a>, Vec3, Sampling)>,
+    seed: u64,
+) {
+    let alpha = common::sidak_alpha(0.01, cases.len());
+    let failures: Vec<String> = cases
+        .enumerate()
+        .filter_map(|(i, (label, bsdf, wo, strategy))| {
+            let p = p_value(bsdf, wo, strategy, strategy, seed + i as u64);
+            (p < alpha).then(|| format!("{label}: p = {p:.2e} < {alpha:.2e}"))
+        })
+        .collect();
+    assert!(failures.is_empty(), "chi-square rejections:\n{}", failures.join("\n"));
+}
+
 fn with_specular(base: Spectrum, metallic: f32, roughness: f32, specular: f32) -> Bsdf<'static> {
     Bsdf::MetalRough(MetalRough { base, metallic, alpha: alpha(roughness), specular, ..MetalRough::default() })
 }
@@ -213,16 +230,7 @@ fn sampling_routines_match_their_pdfs() {
         let label = format!("measured (MERL table of a glossy BRDF), theta_o {theta_o}");
         cases.push((label, Bsdf::Measured(&measured), from_angles(theta_o), Sampling::Importance));
     }
-    let alpha = 1.0 - (1.0 - 0.01f64).powf(1.0 / cases.len() as f64);
-    let failures: Vec<String> = cases
-        .iter()
-        .enumerate()
-        .filter_map(|(i, (label, bsdf, wo, strategy))| {
-            let p = p_value(bsdf, *wo, *strategy, *strategy, i as u64);
-            (p < alpha).then(|| format!("{label}: p = {p:.2e} < {alpha:.2e}"))
-        })
-        .collect();
-    assert!(failures.is_empty(), "chi-square rejections:\n{}", failures.join("\n"));
+    assert_samplings_match(cases.iter().map(|(label, bsdf, wo, strategy)| (label.as_str(), bsdf, *wo, *strategy)), 0);
 }
 
 /// KHR_materials_clearcoat's clearcoatNormalTexture: the coat's GGX lobe about its own
@@ -269,16 +277,10 @@ fn tilted_clearcoat_sampling_matches_its_pdf() {
             from_polar(0.7, 0.5),
         ));
     }
-    let alpha = 1.0 - (1.0 - 0.01f64).powf(1.0 / cases.len() as f64);
-    let failures: Vec<String> = cases
-        .iter()
-        .enumerate()
-        .filter_map(|(i, (label, bsdf, wo))| {
-            let p = p_value(bsdf, *wo, Sampling::Importance, Sampling::Importance, 500 + i as u64);
-            (p < alpha).then(|| format!("{label}: p = {p:.2e} < {alpha:.2e}"))
-        })
-        .collect();
-    assert!(failures.is_empty(), "chi-square rejections:\n{}", failures.join("\n"));
+    assert_samplings_match(
+        cases.iter().map(|(label, bsdf, wo)| (label.as_str(), bsdf, *wo, Sampling::Importance)),
+        500,
+    );
 }
 
 /// Outgoing direction at polar angle `theta` and azimuth `phi` from the local x axis (an
@@ -319,16 +321,10 @@ fn anisotropic_sampling_matches_its_pdf() {
             cases.push((label, Bsdf::MetalRough(glass), from_polar(1.0, phi_o)));
         }
     }
-    let alpha = 1.0 - (1.0 - 0.01f64).powf(1.0 / cases.len() as f64);
-    let failures: Vec<String> = cases
-        .iter()
-        .enumerate()
-        .filter_map(|(i, (label, bsdf, wo))| {
-            let p = p_value(bsdf, *wo, Sampling::Importance, Sampling::Importance, 100 + i as u64);
-            (p < alpha).then(|| format!("{label}: p = {p:.2e} < {alpha:.2e}"))
-        })
-        .collect();
-    assert!(failures.is_empty(), "chi-square rejections:\n{}", failures.join("\n"));
+    assert_samplings_match(
+        cases.iter().map(|(label, bsdf, wo)| (label.as_str(), bsdf, *wo, Sampling::Importance)),
+        100,
+    );
 }
 
 #[test]
@@ -349,16 +345,10 @@ fn albedo(bsdf: &Bsdf, wo: Vec3, n: usize, sampler: &mut Sampler) -> (f64, f64) 
         Bsdf::MetalRough(m) if !m.thin => (m.eta * m.eta) as f64,
         _ => 1.0,
     };
-    let (mut sum, mut sum_sq) = (0.0f64, 0.0f64);
-    for _ in 0..n {
-        let w = bsdf
-            .sample(wo, sampler.next_1d(), sampler.next_2d(), TransportMode::Radiance)
-            .map_or(0.0, |s| s.weight.max_element() as f64 * if s.wi.z < 0.0 { eta2 } else { 1.0 });
-        sum += w;
-        sum_sq += w * w;
-    }
-    let mean = sum / n as f64;
-    (mean, ((sum_sq / n as f64 - mean * mean).max(0.0) / n as f64).sqrt())
+    common::mean_and_se(n, || {
+        bsdf.sample(wo, sampler.next_1d(), sampler.next_2d(), TransportMode::Radiance)
+            .map_or(0.0, |s| s.weight.max_element() as f64 * if s.wi.z < 0.0 { eta2 } else { 1.0 })
+    })
 }
 
 /// White-furnace test of the multiple-scattering compensation: a metal with F0 = 1 reflects
@@ -439,15 +429,10 @@ fn bsdfs_conserve_energy_and_are_reciprocal() {
 /// Single-scattering albedo of GGX with F = 1 at `wo`, by VNDF sampling (weight G2 / G1):
 /// mean and standard error.
 fn single_scattering_albedo(ggx: Ggx, wo: Vec3, n: usize, sampler: &mut Sampler) -> (f64, f64) {
-    let (mut sum, mut sum_sq) = (0.0f64, 0.0f64);
-    for _ in 0..n {
+    common::mean_and_se(n, || {
         let wi = reflect(wo, ggx.sample_visible_normal(wo, sampler.next_2d()));
-        let w = if wi.z > 0.0 { (ggx.g2(wo, wi) / ggx.g1(wo)) as f64 } else { 0.0 };
-        sum += w;
-        sum_sq += w * w;
-    }
-    let mean = sum / n as f64;
-    (mean, ((sum_sq / n as f64 - mean * mean).max(0.0) / n as f64).sqrt())
+        if wi.z > 0.0 { (ggx.g2(wo, wi) / ggx.g1(wo)) as f64 } else { 0.0 }
+    })
 }
 
 /// Energy of the anisotropic white metal (F0 = 1). Single scattering loses E_aniso(wo) < 1;

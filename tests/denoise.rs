@@ -28,7 +28,7 @@ fn cornell() -> Arc<Scene> {
 }
 
 fn glass_box() -> Arc<Scene> {
-    Arc::new(Scene::build(lucent::loader::gltf::load(&common::asset("cornell-box-glass.gltf")).unwrap()))
+    Arc::new(Scene::build(common::load("cornell-box-glass.gltf")))
 }
 
 fn settings(size: u32, spp: u32) -> Settings {

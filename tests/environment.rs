@@ -41,7 +41,7 @@ fn direction(theta: f64, phi: f64) -> Vec3 {
 fn the_map_density_passes_a_chi_square_test() {
     // Rotations by a multiple of the texel width keep texels aligned with the bins.
     let rotations = [0.0, 90.0, -45.0];
-    let alpha = 1.0 - 0.99f64.powf(1.0 / rotations.len() as f64);
+    let alpha = common::sidak_alpha(0.01, rotations.len());
     for rotation in rotations {
         let env = sky(rotation);
         let (dt, dp) = (PI / THETA_BINS as f64, 2.0 * PI / PHI_BINS as f64);
@@ -118,16 +118,6 @@ fn a_bad_map_is_a_one_line_error() {
     assert!(Environment::load(negative).err().unwrap().contains("intensity"));
 }
 
-/// Mean of every pixel and its standard error, per channel.
-fn image_mean(snap: &Snapshot) -> [(f64, f64); 3] {
-    let n = snap.mean.len() as f64;
-    [0, 1, 2].map(|c| {
-        let mean = snap.mean.iter().map(|p| p[c] as f64).sum::<f64>() / n;
-        let se = snap.variance.iter().map(|v| v[c] as f64).sum::<f64>().sqrt() / n;
-        (mean, se)
-    })
-}
-
 #[test]
 fn a_convex_lambertian_under_a_uniform_sky_reflects_albedo_times_sky() {
     // A flat-shaded convex polyhedron sees only the sky: L = albedo x background, exactly,
@@ -146,37 +136,25 @@ fn a_convex_lambertian_under_a_uniform_sky_reflects_albedo_times_sky() {
     assert!(scene.features.environment && scene.light_sampler.environment_pmf() == 1.0);
     // The whole image lies inside the silhouette.
     let camera = Camera::look_at(Vec3::new(0.3, 0.5, 3.0), Vec3::ZERO, 0.2);
-    let mut cases = Vec::new();
-    for importance in [true, false] {
-        for lights in [LightSampling::Off, LightSampling::Explicit, LightSampling::Mis] {
-            cases.push((Integrator::Path, importance, lights));
-        }
-    }
-    cases.push((Integrator::Distribution, true, LightSampling::Mis));
+    let base =
+        Settings { width: 24, height: 24, max_depth: 3, branching: 4, target_spp: Some(32), ..Settings::default() };
+    let drt = Settings {
+        integrator: Integrator::Distribution,
+        importance_sampling: true,
+        light_sampling: LightSampling::Mis,
+        ..base
+    };
+    let cases: Vec<(String, Settings)> =
+        common::switches(base).chain([("importance true, lights Mis".into(), drt)]).collect();
     let z_max = common::sidak_z(1e-3, cases.len() * 3);
-    for (integrator, importance, lights) in cases {
-        let settings = Settings {
-            width: 24,
-            height: 24,
-            max_depth: 3,
-            integrator,
-            branching: 4,
-            importance_sampling: importance,
-            light_sampling: lights,
-            target_spp: Some(32),
-            ..Settings::default()
-        };
+    for (label, settings) in cases {
         let snap = common::render(&scene, camera, settings, None);
         assert_eq!(snap.rejected, 0);
-        for (c, (mean, se)) in image_mean(&snap).into_iter().enumerate() {
-            let expected = 0.5 * sky[c] as f64;
-            let label = format!("{integrator:?}, importance {importance}, {lights:?}, channel {c}");
-            if se == 0.0 {
-                // Cosine sampling of a uniform sky has zero variance: it must be exact.
-                assert!((mean - expected).abs() < 1e-5, "{label}: {mean} vs {expected}");
-            } else {
-                assert!((mean - expected).abs() < z_max * se, "{label}: {mean} vs {expected} (se {se:.1e})");
-            }
+        // Cosine sampling of a uniform sky has zero variance: then the mean must be exact.
+        let (mean, se) = common::image_mean(&snap);
+        for c in 0..3 {
+            let label = format!("{:?}, {label}, channel {c}", settings.integrator);
+            common::assert_within(mean[c], se[c], 0.5 * sky[c] as f64, z_max, &label);
         }
     }
 }
@@ -218,16 +196,19 @@ fn bsdf_sampling_light_sampling_and_mis_agree_under_an_hdr_sky() {
         };
         let snap = common::render(&scene, camera, settings, None);
         assert_eq!(snap.rejected, 0, "{lights:?}: NaN/Inf samples");
-        image_mean(&snap)
+        snap
     };
     let (off, explicit, mis) = (run(LightSampling::Off), run(LightSampling::Explicit), run(LightSampling::Mis));
     let z_max = common::sidak_z(1e-3, 6);
+    // Each image as one block.
+    let whole = |s: &Snapshot| common::blocks(s, 32);
+    for (label, other) in [("BSDF sampling vs MIS", &off), ("light sampling vs MIS", &explicit)] {
+        common::assert_block_means_agree(&whole(other), &whole(&mis), 0..3, 0.0, z_max, label);
+    }
+    let se = |s: &Snapshot| common::image_mean(s).1;
+    let (off, explicit, mis) = (se(&off), se(&explicit), se(&mis));
     for c in 0..3 {
-        for (label, other) in [("BSDF sampling", off[c]), ("light sampling", explicit[c])] {
-            let z = (other.0 - mis[c].0) / (other.1.powi(2) + mis[c].1.powi(2)).sqrt();
-            assert!(z.abs() < z_max, "{label} vs MIS, channel {c}: {} vs {} (z = {z:.2})", other.0, mis[c].0);
-        }
-        assert!(mis[c].1 <= off[c].1.max(explicit[c].1), "MIS se {} vs {} / {}", mis[c].1, off[c].1, explicit[c].1);
+        assert!(mis[c] <= off[c].max(explicit[c]), "MIS se {} vs {} / {}", mis[c], off[c], explicit[c]);
     }
 }
 

@@ -8,55 +8,13 @@
 
 mod common;
 
-use glam::DVec3;
 use lucent::integrator::{LightSampling, PixelSampling, SamplerKind, Settings};
-use lucent::loader::{builtin, gltf};
-use lucent::render::Snapshot;
+use lucent::loader::builtin;
 use lucent::scene::Scene;
 use std::sync::Arc;
 
 const SIZE: u32 = 128;
 const BLOCK: u32 = 16;
-
-/// Per-block means and variances of the mean, per channel, for square images of blocks
-/// `block` pixels on a side.
-fn blocks_of(s: &Snapshot, block: u32) -> Vec<(DVec3, DVec3)> {
-    let size = s.width;
-    let per_side = size / block;
-    let mut out = vec![(DVec3::ZERO, DVec3::ZERO); (per_side * per_side) as usize];
-    let n = (block * block) as f64;
-    for y in 0..size {
-        for x in 0..size {
-            let i = (y * size + x) as usize;
-            let b = &mut out[((y / block) * per_side + x / block) as usize];
-            b.0 += s.mean[i].as_dvec3() / n;
-            b.1 += s.variance[i].as_dvec3() / (n * n);
-        }
-    }
-    out
-}
-
-fn blocks(s: &Snapshot) -> Vec<(DVec3, DVec3)> {
-    blocks_of(s, BLOCK)
-}
-
-/// The largest |z| of `test`'s blocks against `reference`'s; panics past `z_max`.
-fn worst_z(test: &[(DVec3, DVec3)], reference: &[(DVec3, DVec3)], z_max: f64, label: &str) -> f64 {
-    let mut worst = 0.0f64;
-    for (b, (t, r)) in test.iter().zip(reference).enumerate() {
-        for c in 0..3 {
-            let z = (t.0[c] - r.0[c]) / (t.1[c] + r.1[c]).sqrt();
-            worst = worst.max(z.abs());
-            assert!(
-                z.abs() < z_max,
-                "{label}: block {b} channel {c}: {:.4} vs MIS {:.4} (z = {z:.2}, limit {z_max:.2})",
-                t.0[c],
-                r.0[c]
-            );
-        }
-    }
-    worst
-}
 
 fn cornell() -> Arc<Scene> {
     Arc::new(Scene::build(builtin::cornell_box()))
@@ -81,7 +39,6 @@ fn every_switch_combination_agrees_with_mis_block_by_block() {
     let camera = scene.default_camera(1.0);
     let reference =
         common::render(&scene, camera, settings(true, LightSampling::Mis, PixelSampling::Random, 1, 64), None);
-    let reference = blocks(&reference);
     // The Sobol sampler's per-pixel variance overestimates the error of its mean (its
     // samples are stratified), which only makes its z-test conservative.
     use SamplerKind::{Independent, Sobol};
@@ -94,16 +51,13 @@ fn every_switch_combination_agrees_with_mis_block_by_block() {
         (false, LightSampling::Mis, PixelSampling::Random, 64, Independent),
         (true, LightSampling::Mis, PixelSampling::Random, 64, Sobol),
     ];
-    let z_max = common::sidak_z(1e-3, combos.len() * reference.len() * 3);
+    let z_max = common::sidak_z(1e-3, combos.len() * common::blocks(&reference, BLOCK).len() * 3);
     for (importance, lights, pixels, spp, sampler) in combos {
         let s = Settings { sampler, ..settings(importance, lights, pixels, 2, spp) };
         let snap = common::render(&scene, camera, s, None);
-        assert_eq!(snap.rejected, 0);
-        let label = format!("importance {importance}, lights {lights:?}, {pixels:?}, {sampler:?}");
-        let worst = worst_z(&blocks(&snap), &reference, z_max, &label);
-        eprintln!(
-            "importance {importance}, lights {lights:?}, {pixels:?}, {sampler:?}: worst |z| {worst:.2} (limit {z_max:.2})"
-        );
+        let label = format!("importance {importance}, lights {lights:?}, {pixels:?}, {sampler:?} vs MIS");
+        let worst = common::assert_blocks_agree(&snap, &reference, BLOCK, z_max, &label);
+        eprintln!("{label}: worst |z| {worst:.2} (limit {z_max:.2})");
     }
 }
 
@@ -114,22 +68,20 @@ fn the_grid_baseline_matches_the_reference_over_the_whole_image() {
     // must pass the same z-test (variance of a mean of pixel means: sum of variances / n^2).
     let scene = cornell();
     let camera = scene.default_camera(1.0);
-    let stats = |s: &Snapshot| {
-        let n = s.mean.len() as f64;
-        let mean = s.mean.iter().map(|p| p.as_dvec3()).sum::<DVec3>() / n;
-        let var = s.variance.iter().map(|v| v.as_dvec3()).sum::<DVec3>() / (n * n);
-        (mean, var)
-    };
     let reference =
         common::render(&scene, camera, settings(true, LightSampling::Mis, PixelSampling::Random, 3, 64), None);
     let grid = common::render(&scene, camera, settings(true, LightSampling::Mis, PixelSampling::Grid, 3, 64), None);
-    let ((r, rv), (g, gv)) = (stats(&reference), stats(&grid));
+    // The whole image as one block.
     let z_max = common::sidak_z(1e-3, 3);
-    for c in 0..3 {
-        let z = (g[c] - r[c]) / (rv[c] + gv[c]).sqrt();
-        assert!(z.abs() < z_max, "channel {c}: grid {:.5} vs reference {:.5} (z = {z:.2})", g[c], r[c]);
-    }
-    assert!(g.as_vec3().min_element() > 0.0);
+    common::assert_block_means_agree(
+        &common::blocks(&grid, SIZE),
+        &common::blocks(&reference, SIZE),
+        0..3,
+        0.0,
+        z_max,
+        "grid vs reference",
+    );
+    assert!(common::image_mean(&grid).0.as_vec3().min_element() > 0.0);
 }
 
 #[test]
@@ -137,8 +89,7 @@ fn explicit_and_no_light_sampling_agree_with_mis_on_the_glass_box() {
     // Delta lobes: no light is sampled at the mirror or the glass, and light found after
     // them counts in full in every mode. Had explicit sampling dropped it (as before delta
     // lobes existed), the mirror sphere would show no lamp and the caustic would vanish.
-    let desc = gltf::load(&common::asset("cornell-box-glass.gltf")).unwrap();
-    let scene = Arc::new(Scene::build(desc));
+    let scene = Arc::new(Scene::build(common::load("cornell-box-glass.gltf")));
     let size = 64;
     let camera = scene.default_camera(1.0);
     let glass = |importance, lights, seed, spp| Settings {
@@ -148,19 +99,17 @@ fn explicit_and_no_light_sampling_agree_with_mis_on_the_glass_box() {
         ..settings(importance, lights, PixelSampling::Random, seed, spp)
     };
     let reference = common::render(&scene, camera, glass(true, LightSampling::Mis, 11, 512), None);
-    let reference = blocks_of(&reference, 8);
     let combos = [
         (true, LightSampling::Explicit, 512),
         (true, LightSampling::Off, 1024),
         (false, LightSampling::Explicit, 512),
         (false, LightSampling::Mis, 512),
     ];
-    let z_max = common::sidak_z(1e-3, combos.len() * reference.len() * 3);
+    let z_max = common::sidak_z(1e-3, combos.len() * common::blocks(&reference, 8).len() * 3);
     for (importance, lights, spp) in combos {
         let snap = common::render(&scene, camera, glass(importance, lights, 12, spp), None);
-        assert_eq!(snap.rejected, 0);
-        let label = format!("glass box, importance {importance}, lights {lights:?}");
-        let worst = worst_z(&blocks_of(&snap, 8), &reference, z_max, &label);
+        let label = format!("glass box, importance {importance}, lights {lights:?} vs MIS");
+        let worst = common::assert_blocks_agree(&snap, &reference, 8, z_max, &label);
         eprintln!("{label}: worst |z| {worst:.2} (limit {z_max:.2})");
     }
 }

@@ -5,18 +5,9 @@
 mod common;
 
 use glam::Vec3;
-use lucent::integrator::{LightSampling, Settings};
+use lucent::integrator::Settings;
 use lucent::scene::{MeshDesc, Scene, SceneDesc, camera::Camera, material::Material, shapes::uv_sphere};
 use std::sync::Arc;
-
-const SWITCHES: [(bool, LightSampling); 6] = [
-    (true, LightSampling::Off),
-    (true, LightSampling::Explicit),
-    (true, LightSampling::Mis),
-    (false, LightSampling::Off),
-    (false, LightSampling::Explicit),
-    (false, LightSampling::Mis),
-];
 
 /// Flat-shaded mesh: with face normals every facet is an exact Lambertian reflector, so the
 /// closed polyhedron is an exact furnace whatever its tessellation.
@@ -25,26 +16,16 @@ fn flat(mut mesh: MeshDesc) -> MeshDesc {
     mesh
 }
 
-/// Asserts the image mean equals `expected` in every channel within a z-test bound
-/// built from the per-pixel variance estimates; returns the measured mean.
-fn assert_mean(snap: &lucent::render::Snapshot, expected: f64, z_max: f64, label: &str) -> [f64; 3] {
-    assert_eq!(snap.rejected, 0, "{label}: NaN/Inf samples");
-    let n = snap.mean.len() as f64;
-    let mut out = [0.0; 3];
-    for c in 0..3 {
-        let mean = snap.mean.iter().map(|p| p[c] as f64).sum::<f64>() / n;
-        let se = (snap.variance.iter().map(|v| v[c] as f64).sum::<f64>()).sqrt() / n;
-        if se == 0.0 {
-            // A zero-variance estimator (e.g. cosine sampling under uniform light) must be exact.
-            assert!((mean - expected).abs() < 1e-5, "{label}: zero-variance mean {mean} != {expected}");
-            out[c] = mean;
-            continue;
-        }
-        let z = (mean - expected) / se;
-        assert!(z.abs() < z_max, "{label}: channel {c} mean {mean:.5} vs {expected} (z = {z:.2}, se {se:.2e})");
-        out[c] = mean;
+/// Asserts that `scene` seen from `camera` (32x32 pixels, 64 samples, unbounded depth) has
+/// mean radiance 1 with every sampling switch: z-tests, and within 2% in red.
+fn assert_radiance_one(scene: &Arc<Scene>, camera: Camera, label: &str) {
+    let z_max = common::sidak_z(1e-3, common::SWITCHES.len() * 3);
+    let base = Settings { width: 32, height: 32, max_depth: u32::MAX, target_spp: Some(64), ..Settings::default() };
+    for (switches, settings) in common::switches(base) {
+        let snap = common::render(scene, camera, settings, None);
+        let mean = common::assert_mean(&snap, 1.0, z_max, &format!("{label}, {switches}"));
+        assert!((mean[0] - 1.0).abs() < 0.02, "{label}, {switches}: mean {mean:?} within 2% of 1");
     }
-    out
 }
 
 #[test]
@@ -59,21 +40,7 @@ fn emitting_lambertian_sphere_seen_from_inside_has_radiance_one() {
     };
     let scene = Arc::new(Scene::build(desc));
     let camera = Camera::look_at(Vec3::ZERO, Vec3::new(0.3, 0.2, -1.0), 1.2);
-    let z_max = common::sidak_z(1e-3, SWITCHES.len() * 3);
-    for (importance, lights) in SWITCHES {
-        let settings = Settings {
-            width: 32,
-            height: 32,
-            max_depth: u32::MAX,
-            importance_sampling: importance,
-            light_sampling: lights,
-            target_spp: Some(64),
-            ..Settings::default()
-        };
-        let snap = common::render(&scene, camera, settings, None);
-        let mean = assert_mean(&snap, 1.0, z_max, &format!("importance {importance}, lights {lights:?}"));
-        assert!((mean[0] - 1.0).abs() < 0.02, "mean {mean:?} within 2% of 1");
-    }
+    assert_radiance_one(&scene, camera, "furnace");
 }
 
 #[test]
@@ -93,19 +60,11 @@ fn white_sphere_in_an_emitting_enclosure_returns_the_emitted_radiance() {
     let scene = Arc::new(Scene::build(desc));
     // A narrow view that sees only the small sphere.
     let camera = Camera::look_at(Vec3::new(0.0, 0.4, 1.5), Vec3::ZERO, 0.25);
-    let z_max = common::sidak_z(1e-3, SWITCHES.len() * 3);
-    for (importance, lights) in SWITCHES {
-        let settings = Settings {
-            width: 24,
-            height: 24,
-            max_depth: 3,
-            importance_sampling: importance,
-            light_sampling: lights,
-            target_spp: Some(64),
-            ..Settings::default()
-        };
+    let z_max = common::sidak_z(1e-3, common::SWITCHES.len() * 3);
+    let base = Settings { width: 24, height: 24, max_depth: 3, target_spp: Some(64), ..Settings::default() };
+    for (label, settings) in common::switches(base) {
         let snap = common::render(&scene, camera, settings, None);
-        assert_mean(&snap, 1.0, z_max, &format!("importance {importance}, lights {lights:?}"));
+        common::assert_mean(&snap, 1.0, z_max, &label);
         let brightest = snap.mean.iter().map(|p| p.max_element()).fold(0.0f32, f32::max);
         assert!(brightest < 2.0, "no pixel far above the emitted radiance: {brightest}");
     }
@@ -132,20 +91,5 @@ fn a_smooth_mirror_and_smooth_glass_in_the_furnace_change_nothing() {
     };
     let scene = Arc::new(Scene::build(desc));
     let camera = Camera::look_at(Vec3::ZERO, Vec3::new(0.0, 0.0, -1.0), 0.9);
-    let z_max = common::sidak_z(1e-3, SWITCHES.len() * 3);
-    for (importance, lights) in SWITCHES {
-        let settings = Settings {
-            width: 32,
-            height: 32,
-            max_depth: u32::MAX,
-            importance_sampling: importance,
-            light_sampling: lights,
-            target_spp: Some(64),
-            ..Settings::default()
-        };
-        let snap = common::render(&scene, camera, settings, None);
-        let mean =
-            assert_mean(&snap, 1.0, z_max, &format!("delta furnace, importance {importance}, lights {lights:?}"));
-        assert!((mean[0] - 1.0).abs() < 0.02, "mean {mean:?} within 2% of 1");
-    }
+    assert_radiance_one(&scene, camera, "delta furnace");
 }

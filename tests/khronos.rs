@@ -9,7 +9,6 @@ mod common;
 
 use glam::{Vec2, Vec3};
 use lucent::integrator::Settings;
-use lucent::loader::gltf;
 use lucent::render::Snapshot;
 use lucent::scene::{
     Scene,
@@ -20,8 +19,9 @@ use lucent::scene::{
 };
 use std::sync::Arc;
 
-fn load(name: &str) -> Scene {
-    let desc = gltf::load(&common::asset(&format!("{name}/glTF-Binary/{name}.glb"))).unwrap();
+/// The Khronos test model `name` (its binary glTF) under a white sky.
+fn model(name: &str) -> Scene {
+    let desc = common::load(format!("{name}/glTF-Binary/{name}.glb"));
     let sky = Environment::load(EnvSettings { background: Vec3::ONE, ..EnvSettings::default() }).unwrap();
     Scene::build(desc).with_environment(Some(sky))
 }
@@ -63,7 +63,7 @@ fn texture_coordinates_put_each_labelled_corner_where_it_belongs() {
     // The README: TopLeft_TEXCOORD_0 spans u, v in [0, 0.4], the texture's top-left corner,
     // which is yellow; top right orange, bottom left blue, bottom right green. A flipped V
     // would give the top objects the bottom colours.
-    let scene = Arc::new(load("TextureCoordinateTest"));
+    let scene = Arc::new(model("TextureCoordinateTest"));
     let (w, h) = (96, 96);
     let camera = front(&scene, 1.0);
     let snap = render(&scene, camera, w, h, 8);
@@ -96,7 +96,7 @@ fn red_pixels(snap: &Snapshot) -> usize {
 fn alpha_modes_hide_every_red_cross() {
     // The README: green checks and hidden red X's "show check marks only when the requested
     // mode is correctly applied". A renderer that ignores BLEND or MASK shows red X's.
-    let scene = Arc::new(load("AlphaBlendModeTest"));
+    let scene = Arc::new(model("AlphaBlendModeTest"));
     let (w, h) = (720, 240);
     let camera = front(&scene, 3.0);
     let right = render(&scene, camera, w, h, 8);
@@ -169,7 +169,7 @@ fn normal_maps_tilt_like_the_geometry_they_imitate() {
     // away from the cell's centre. With the normal map's green channel flipped (the
     // README's "Flipped Y" failure) the mapped cells must fail this.
     for name in ["NormalTangentMirrorTest", "NormalTangentTest"] {
-        let scene = load(name);
+        let scene = model(name);
         let cells = dome_agreement(&scene);
         assert!(cells.len() >= 30, "{name}: found {} cells", cells.len());
         for (centre, agreement) in &cells {
@@ -215,7 +215,7 @@ fn transmission_shows_the_backdrop_through_smooth_spheres_and_blurs_it_through_r
     // What a thin-walled sphere transmits is the checkered cloth straight behind it: the
     // sphere's pixels correlate with an image of the cloth alone (the spheres made
     // invisible), less so through the rough sphere, and not at all without transmission.
-    let scene = Arc::new(load("TransmissionTest"));
+    let scene = Arc::new(model("TransmissionTest"));
     let (w, h) = (160, 120);
     let camera = scene.default_camera(w as f32 / h as f32);
     let ids = material_ids(&scene, camera, w, h);
@@ -263,7 +263,7 @@ fn attenuation_deepens_with_thickness_alike_in_every_row() {
     // cube's size at attenuation distance 1, the "Attenuation" row varies the distance at
     // size 1, so column x has x units of attenuation in both: the two must be equally blue,
     // and bluer the larger x. Without the volume (thin walls) nothing deepens.
-    let scene = Arc::new(load("AttenuationTest"));
+    let scene = Arc::new(model("AttenuationTest"));
     let (w, h) = (400, 400);
     let camera = front(&scene, 1.0);
     let ids = material_ids(&scene, camera, w, h);

@@ -45,7 +45,7 @@ fn a_seen_light_is_exact_along_its_edges() {
     // And the exact pixels are the pixels' means: an independent, unbiased render without it.
     let reference = common::render(&scene, camera, emission_only(1024, false, SamplerKind::Independent, 2), None);
     let z = common::sidak_z(1e-3, 3 * (SIZE * SIZE / 64) as usize);
-    common::assert_blocks_agree(&with, &reference, z, "light edges on");
+    common::assert_blocks_agree(&with, &reference, 8, z, "light edges on");
 }
 
 /// An emitting square facing the camera, and a grey strip in front of it that hides part
@@ -80,7 +80,7 @@ fn a_partly_hidden_light_keeps_its_mean() {
     let with = common::render(&scene, camera, emission_only(256, true, SamplerKind::Independent, 1), None);
     let without = common::render(&scene, camera, emission_only(256, false, SamplerKind::Independent, 2), None);
     let z = common::sidak_z(1e-3, 3 * (SIZE * SIZE / 64) as usize);
-    common::assert_blocks_agree(&with, &without, z, "hidden light edges");
+    common::assert_blocks_agree(&with, &without, 8, z, "hidden light edges");
     // Film columns: the lamp's right edge (x = 1) falls at 47.14, its left edge (x = -1)
     // at 16.86, rows 16.86 to 47.14; the strip covers rows 26.3 to 41.5 of the left edge.
     let pixel_variance = |s: &Snapshot, x: u32, rows: std::ops::RangeInclusive<u32>| -> f64 {

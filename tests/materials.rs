@@ -7,7 +7,7 @@ mod common;
 
 use glam::{DVec3, Vec2, Vec3};
 use lucent::integrator::Settings;
-use lucent::loader::gltf;
+use lucent::render::Snapshot;
 use lucent::scene::environment::{EnvSettings, Environment};
 use lucent::scene::{
     MeshDesc, Scene, SceneDesc,
@@ -18,8 +18,7 @@ use lucent::scene::{
 use std::sync::Arc;
 
 fn glass_scene() -> Arc<Scene> {
-    let desc = gltf::load(&common::asset("cornell-box-glass.gltf")).unwrap();
-    Arc::new(Scene::build(desc))
+    Arc::new(Scene::build(common::load("cornell-box-glass.gltf")))
 }
 
 /// A point given in the file's coordinates (the box spans [0, 0.556] x [0, 0.549] x [0, 0.559]
@@ -122,7 +121,7 @@ fn absorption_inside_a_volume_follows_beer_lambert() {
     assert!((thick - (-1.5f64).exp()).abs() < 2e-3, "1.5 units: {thick}");
     assert!((thick / thin - (-1.0f64).exp()).abs() < 5e-3, "ratio {}", thick / thin);
     // attenuationColor c after attenuationDistance d: sigma = -ln(c) / d, per channel.
-    let desc = gltf::load(&common::asset("AttenuationTest/glTF-Binary/AttenuationTest.glb")).unwrap();
+    let desc = common::load("AttenuationTest/glTF-Binary/AttenuationTest.glb");
     let volumes: Vec<Vec3> = desc.materials.iter().filter_map(|m| m.volume.map(|v| v.sigma_t)).collect();
     assert!(!volumes.is_empty() && volumes.iter().all(|s| s.is_finite() && s.min_element() >= 0.0));
     assert!(volumes.iter().any(|s| s.max_element() > 0.0), "some volume absorbs: {volumes:?}");
@@ -238,16 +237,12 @@ fn under_white_sky(desc: SceneDesc) -> Arc<Scene> {
     Arc::new(Scene::build(desc).with_environment(Some(sky)))
 }
 
-/// The mean colour of an 8x8 image from `camera` at `spp`, and the standard error of each
-/// channel's mean (from the render's per-pixel variances).
-fn image_mean(scene: &Arc<Scene>, camera: Camera, spp: u32) -> (DVec3, DVec3) {
+/// An 8x8 image from `camera` at `spp`, without NaN/Inf samples.
+fn render_8x8(scene: &Arc<Scene>, camera: Camera, spp: u32) -> Arc<Snapshot> {
     let settings = Settings { width: 8, height: 8, target_spp: Some(spp), ..Settings::default() };
     let snap = common::render(scene, camera, settings, None);
     assert_eq!(snap.rejected, 0, "NaN/Inf samples");
-    let n = snap.mean.len() as f64;
-    let mean = snap.mean.iter().map(|c| c.as_dvec3()).sum::<DVec3>() / n;
-    let se = (snap.variance.iter().map(|v| v.as_dvec3()).sum::<DVec3>()).powf(0.5) / n;
-    (mean, se)
+    snap
 }
 
 #[test]
@@ -256,7 +251,7 @@ fn specular_colour_factors_above_one_raise_f0_as_khr_materials_specular_says() {
     // specularColorFactor is 0, 1.184, 5.441, 13.276 and 25. The extension clamps only the
     // product: F0 = min(0.04 x factor, 1). Seen head-on under a white sky, a sphere's front
     // reflects the sky behind the camera with F0 (Schlick's term is 1e-12 of it there).
-    let desc = gltf::load(&common::asset("SpecularTest/glTF-Binary/SpecularTest.glb")).unwrap();
+    let desc = common::load("SpecularTest/glTF-Binary/SpecularTest.glb");
     let hdr: Vec<(u32, f32)> = (desc.materials.iter().enumerate())
         .filter(|(_, m)| m.name.starts_with("M7."))
         .map(|(i, m)| (i as u32, m.specular_color.x))
@@ -273,7 +268,7 @@ fn specular_colour_factors_above_one_raise_f0_as_khr_materials_specular_says() {
     for (&(_, factor), &(lo, hi)) in hdr.iter().zip(&bounds) {
         let (centre, radius) = ((lo + hi) * 0.5, (hi - lo).x * 0.5);
         let camera = Camera::look_at(centre + Vec3::Z * 4.0 * radius, centre, 0.01);
-        let (mean, se) = image_mean(&scene, camera, 4);
+        let (mean, se) = common::image_mean(&render_8x8(&scene, camera, 4));
         let want = (0.04 * factor as f64).min(1.0);
         assert!(se.max_element() < 1e-6, "a delta reflection of a uniform sky is noiseless: {se}");
         assert!((mean.x - want).abs() < 1e-3 * want.max(0.04), "factor {factor}: F0 {:.4}, want {want:.4}", mean.x);
@@ -332,8 +327,8 @@ fn a_specular_colour_texture_tints_f0_as_the_same_factor_does() {
             ..black.clone()
         };
         let plain = Material { specular_color: (texel * factor as f64).as_vec3(), ..black.clone() };
-        let (with_texture, _) = image_mean(&textured_square(textured, 1, vec![code]), camera, 4);
-        let (with_factor, _) = image_mean(&textured_square(plain, 1, vec![code]), camera, 4);
+        let (with_texture, _) = common::image_mean(&render_8x8(&textured_square(textured, 1, vec![code]), camera, 4));
+        let (with_factor, _) = common::image_mean(&render_8x8(&textured_square(plain, 1, vec![code]), camera, 4));
         let want = (texel * 0.04 * factor as f64).min(DVec3::ONE);
         for c in 0..3 {
             assert!(
@@ -361,10 +356,6 @@ fn a_minified_black_and_white_texture_averages_to_its_linear_mean() {
     let scene = textured_square(material, side, texels);
     // The frame lies inside the square.
     let camera = Camera::look_at(Vec3::new(0.0, 0.0, 2.0), Vec3::ZERO, 0.4);
-    let (mean, se) = image_mean(&scene, camera, 64);
     let z_max = common::sidak_z(1e-3, 3);
-    for c in 0..3 {
-        let z = (mean[c] - 0.5) / se[c];
-        assert!(z.abs() < z_max, "channel {c}: {:.4} +- {:.4}, want 0.5 (z = {z:.1})", mean[c], se[c]);
-    }
+    common::assert_mean(&render_8x8(&scene, camera, 64), 0.5, z_max, "checker");
 }

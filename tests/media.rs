@@ -7,7 +7,7 @@
 
 mod common;
 
-use glam::{DVec3, UVec2, Vec3};
+use glam::{UVec2, Vec3};
 use lucent::integrator::{LightSampling, Settings};
 use lucent::loader::builtin;
 use lucent::math::sampler::Sampler;
@@ -17,15 +17,6 @@ use lucent::scene::{MeshDesc, Scene, SceneDesc, camera::Camera, material::Materi
 use std::f64::consts::PI;
 use std::sync::Arc;
 
-const SWITCHES: [(bool, LightSampling); 6] = [
-    (true, LightSampling::Off),
-    (true, LightSampling::Explicit),
-    (true, LightSampling::Mis),
-    (false, LightSampling::Off),
-    (false, LightSampling::Explicit),
-    (false, LightSampling::Mis),
-];
-
 #[test]
 fn henyey_greenstein_sampling_matches_its_pdf() {
     let (theta_bins, phi_bins, samples) = (32usize, 32usize, 200_000usize);
@@ -33,7 +24,7 @@ fn henyey_greenstein_sampling_matches_its_pdf() {
     let wo = Vec3::new(0.3, -0.5, 0.81).normalize();
     let frame = lucent::math::frame::Frame::from_normal(-wo);
     let gs = [-0.9f32, -0.3, 0.0, 0.3, 0.9];
-    let alpha = 1.0 - (1.0 - 0.01f64).powf(1.0 / gs.len() as f64);
+    let alpha = common::sidak_alpha(0.01, gs.len());
     for (k, g) in gs.into_iter().enumerate() {
         let hg = HenyeyGreenstein { g };
         let mut sampler = Sampler::new(UVec2::new(3, k as u32), 0, 17);
@@ -122,37 +113,17 @@ fn an_index_matched_absorbing_box_transmits_exactly_le_exp_minus_sigma_d() {
     let sigma = Vec3::new(0.2, 0.9, 2.5);
     let le = Vec3::new(2.0, 3.0, 4.0);
     for (label, (z0, z1), d) in [("camera outside", (-2.0, -1.0), 1.0f32), ("camera inside", (-2.0, 1.0), 2.0)] {
-        for (importance, lights) in SWITCHES {
-            let s = Settings {
-                width: 8,
-                height: 8,
-                importance_sampling: importance,
-                light_sampling: lights,
-                target_spp: Some(4),
-                ..Settings::default()
-            };
+        let base = Settings { width: 8, height: 8, target_spp: Some(4), ..Settings::default() };
+        for (switches, s) in common::switches(base) {
             let snap = through_absorber(z0, z1, sigma, s);
             let expected = le * (-sigma * d).exp();
             for p in &snap.mean {
                 assert!(
                     ((*p - expected) / expected).abs().max_element() < 1e-5,
-                    "{label}, importance {importance}, {lights:?}: {p} vs {expected}"
+                    "{label}, {switches}: {p} vs {expected}"
                 );
             }
         }
-    }
-}
-
-/// Asserts every channel of the image mean equals `expected` by a z-test on the renderer's
-/// own variance estimates.
-fn assert_mean(snap: &Snapshot, expected: f64, z_max: f64, label: &str) {
-    assert_eq!(snap.rejected, 0, "{label}: NaN/Inf samples");
-    let n = snap.mean.len() as f64;
-    let mean = snap.mean.iter().map(|p| p.as_dvec3()).sum::<DVec3>() / n;
-    let se = snap.variance.iter().map(|v| v.as_dvec3()).sum::<DVec3>().powf(0.5) / n;
-    for c in 0..3 {
-        let z = (mean[c] - expected) / se[c];
-        assert!(z.abs() < z_max, "{label}: channel {c} mean {:.5} vs {expected} (z = {z:.2})", mean[c]);
     }
 }
 
@@ -166,7 +137,7 @@ fn a_scattering_medium_in_an_emitting_enclosure_returns_the_emitted_radiance() {
     // that the sample variance the z-test divides by could not be trusted.
     let inner_radius = 0.8;
     let le = 0.7f32;
-    let z_max = common::sidak_z(1e-3, 3 * SWITCHES.len() * 3);
+    let z_max = common::sidak_z(1e-3, 3 * common::SWITCHES.len() * 3);
     for g in [-0.5f32, 0.0, 0.8] {
         let wall = Material { emissive: Vec3::splat(le), ..Material::lambert("wall", Vec3::ZERO) };
         let fog = Volume { sigma_t: Vec3::new(1.5, 2.0, 3.0), albedo: Vec3::ONE, g, grid: None };
@@ -182,18 +153,10 @@ fn a_scattering_medium_in_an_emitting_enclosure_returns_the_emitted_radiance() {
         let scene = Arc::new(Scene::build(desc));
         assert!(scene.features.media);
         let camera = Camera::look_at(Vec3::new(0.1, 0.0, 0.2), Vec3::new(0.3, 0.2, -1.0), 1.2);
-        for (importance, lights) in SWITCHES {
-            let settings = Settings {
-                width: 16,
-                height: 16,
-                max_depth: u32::MAX,
-                importance_sampling: importance,
-                light_sampling: lights,
-                target_spp: Some(64),
-                ..Settings::default()
-            };
+        let base = Settings { width: 16, height: 16, max_depth: u32::MAX, target_spp: Some(64), ..Settings::default() };
+        for (label, settings) in common::switches(base) {
             let snap = common::render(&scene, camera, settings, None);
-            assert_mean(&snap, le as f64, z_max, &format!("g {g}, importance {importance}, lights {lights:?}"));
+            common::assert_mean(&snap, le as f64, z_max, &format!("g {g}, {label}"));
         }
     }
 }
@@ -201,6 +164,11 @@ fn a_scattering_medium_in_an_emitting_enclosure_returns_the_emitted_radiance() {
 /// The Cornell box with an index-matched box of `volume` (None: empty, a thin wall of ior 1)
 /// filling its lower part.
 fn cornell_with_box(volume: Option<Volume>) -> Arc<Scene> {
+    Arc::new(Scene::build(cornell_desc_with_box(volume)))
+}
+
+/// The scene description of `cornell_with_box`.
+fn cornell_desc_with_box(volume: Option<Volume>) -> SceneDesc {
     let mut desc = builtin::cornell_box();
     let id = desc.materials.len() as u32;
     desc.materials.push(Material::dielectric("matched", 1.0, volume));
@@ -212,7 +180,7 @@ fn cornell_with_box(volume: Option<Volume>) -> Arc<Scene> {
     let size = hi - lo;
     let (min, max) = (lo + size * Vec3::new(0.05, 0.02, 0.1), lo + size * Vec3::new(0.95, 0.7, 0.9));
     desc.meshes.push(shapes::cuboid(min, max, false, id));
-    Arc::new(Scene::build(desc))
+    desc
 }
 
 fn cornell_settings(lights: LightSampling, seed: u64, spp: u32, max_depth: u32) -> Settings {
@@ -237,7 +205,7 @@ fn an_index_matched_empty_box_changes_nothing_and_adds_no_bounce() {
     for max_depth in [1, 7] {
         let a = common::render(&plain, camera, cornell_settings(LightSampling::Mis, 1, 64, max_depth), None);
         let b = common::render(&boxed, camera, cornell_settings(LightSampling::Mis, 2, 64, max_depth), None);
-        common::assert_blocks_agree(&b, &a, z_max, &format!("index-matched empty box, max depth {max_depth}"));
+        common::assert_blocks_agree(&b, &a, 8, z_max, &format!("index-matched empty box, max depth {max_depth}"));
     }
 }
 
@@ -251,7 +219,7 @@ fn light_sampling_modes_agree_in_fog_and_media_renders_are_deterministic() {
     let z_max = common::sidak_z(1e-3, 2 * 36 * 3);
     for (lights, spp) in [(LightSampling::Explicit, 256), (LightSampling::Off, 1024)] {
         let snap = common::render(&scene, camera, cornell_settings(lights, 2, spp, 7), None);
-        common::assert_blocks_agree(&snap, &reference, z_max, &format!("fog, lights {lights:?}"));
+        common::assert_blocks_agree(&snap, &reference, 8, z_max, &format!("fog, lights {lights:?}"));
     }
     let s = cornell_settings(LightSampling::Mis, 3, 4, 7);
     let one = common::render(&scene, camera, s, Some(1));
@@ -292,7 +260,7 @@ fn a_dense_scattering_object_conserves_energy_in_a_white_furnace() {
         let settings =
             Settings { width: 12, height: 12, max_depth: u32::MAX, target_spp: Some(32), ..Settings::default() };
         let snap = common::render(&scene, camera, settings, None);
-        assert_mean(&snap, 1.0, z_max, &label);
+        common::assert_mean(&snap, 1.0, z_max, &label);
     }
 }
 
@@ -320,7 +288,7 @@ fn out_of_range_medium_parameters_are_clamped_with_a_warning_naming_the_material
 }
 
 fn grid_asset(name: &str) -> std::path::PathBuf {
-    std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/assets/grids").join(name)
+    common::asset("grids").join(name)
 }
 
 #[test]
@@ -367,17 +335,7 @@ fn a_constant_density_grid_renders_like_the_homogeneous_medium() {
     // free-flight sampling and Beer-Lambert through the homogeneous medium.
     let homogeneous = Volume { sigma_t: Vec3::splat(2.5), albedo: Vec3::new(0.9, 0.8, 0.6), g: 0.4, grid: None };
     let plain = cornell_with_box(Some(homogeneous));
-    let mut desc = builtin::cornell_box();
-    let id = desc.materials.len() as u32;
-    desc.materials.push(Material::dielectric("matched", 1.0, Some(Volume { grid: Some(0), ..homogeneous })));
-    let (lo, hi) = desc
-        .meshes
-        .iter()
-        .flat_map(|m| &m.positions)
-        .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &p| (lo.min(p), hi.max(p)));
-    let size = hi - lo;
-    let (min, max) = (lo + size * Vec3::new(0.05, 0.02, 0.1), lo + size * Vec3::new(0.95, 0.7, 0.9));
-    desc.meshes.push(shapes::cuboid(min, max, false, id));
+    let mut desc = cornell_desc_with_box(Some(Volume { grid: Some(0), ..homogeneous }));
     desc.grids.push(lucent::medium::grid::DensityGrid::load_vdb(&grid_asset("constant.vdb"), None).unwrap());
     let gridded = Arc::new(Scene::build(desc));
     assert!(gridded.features.media);
@@ -385,5 +343,5 @@ fn a_constant_density_grid_renders_like_the_homogeneous_medium() {
     let z_max = common::sidak_z(1e-3, 36 * 3);
     let a = common::render(&plain, camera, cornell_settings(LightSampling::Mis, 1, 256, 7), None);
     let b = common::render(&gridded, camera, cornell_settings(LightSampling::Mis, 2, 256, 7), None);
-    common::assert_blocks_agree(&b, &a, z_max, "constant grid against the homogeneous medium");
+    common::assert_blocks_agree(&b, &a, 8, z_max, "constant grid against the homogeneous medium");
 }

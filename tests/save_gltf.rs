@@ -66,13 +66,6 @@ fn sources(dir: &Path) -> Vec<(&'static str, Option<PathBuf>, &'static str)> {
     ]
 }
 
-fn load(source: Option<&Path>) -> SceneDesc {
-    match source {
-        Some(p) => gltf::load(p).unwrap_or_else(|e| panic!("{e}")),
-        None => builtin::cornell_box(),
-    }
-}
-
 /// Writes `source` with `edited` materials and lights (against `original`) to `out`.
 fn save(source: Option<&Path>, original: &SceneDesc, edited: (&[Material], &[PunctualLight]), out: &Path) {
     let edits = save::Edits { original: (&original.materials, &original.lights), edited };
@@ -174,7 +167,7 @@ fn extent(desc: &SceneDesc) -> f32 {
 fn an_unedited_save_loads_to_the_same_scene_and_keeps_every_byte_of_data() {
     let dir = common::scratch("save-unedited");
     for (name, source, ext) in sources(&dir) {
-        let original = load(source.as_deref());
+        let original = source.as_deref().map_or_else(builtin::cornell_box, common::load);
         let out = dir.join(format!("{name}.saved.{ext}"));
         save(source.as_deref(), &original, (&original.materials, &original.lights), &out);
         let loaded = gltf::load(&out).unwrap_or_else(|e| panic!("{e}"));
@@ -249,7 +242,7 @@ fn json_of(path: Option<&Path>) -> Value {
 fn every_edited_parameter_and_light_loads_back_as_edited_and_everything_else_is_kept() {
     let dir = common::scratch("save-edited");
     for (name, source, ext) in sources(&dir) {
-        let original = load(source.as_deref());
+        let original = source.as_deref().map_or_else(builtin::cornell_box, common::load);
         let (mut materials, mut lights) = (original.materials.clone(), original.lights.clone());
         let edits = edit_everything(&mut materials, &mut lights);
         assert!(edits > 20 * materials.len(), "{name}: {edits} edits");
@@ -358,7 +351,7 @@ fn the_khronos_validator_finds_no_error_in_saved_files() {
     let dir = common::scratch("save-validate");
     let mut files = Vec::new();
     for (name, source, ext) in sources(&dir) {
-        let original = load(source.as_deref());
+        let original = source.as_deref().map_or_else(builtin::cornell_box, common::load);
         let (mut materials, mut lights) = (original.materials.clone(), original.lights.clone());
         edit_everything(&mut materials, &mut lights);
         let out = dir.join(format!("{name}.tuned.{ext}"));

@@ -3,15 +3,17 @@
 #![allow(dead_code)]
 
 use glam::DVec3;
-use lucent::integrator::Settings;
+use lucent::integrator::{LightSampling, Settings};
+use lucent::loader::gltf;
 use lucent::render::{Job, RenderSession, Snapshot};
-use lucent::scene::{Scene, camera::Camera};
+use lucent::scene::{Scene, SceneDesc, camera::Camera};
 use statrs::distribution::{ChiSquared, ContinuousCDF, Normal};
+use std::ops::Range;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 /// A file under tests/assets (see its INDEX.md).
-pub fn asset(rel: &str) -> PathBuf {
+pub fn asset(rel: impl AsRef<Path>) -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/assets").join(rel)
 }
 
@@ -81,11 +83,14 @@ pub fn render(scene: &Arc<Scene>, camera: Camera, settings: Settings, threads: O
     RenderSession::new(job, threads).expect("valid settings").wait_until_done()
 }
 
-/// Two-sided z threshold for a family of `tests` tests at family-wise significance `alpha`,
-/// with the Sidak correction: each test runs at 1 - (1 - alpha)^(1/tests).
+/// Significance of each of `tests` tests for family-wise significance `alpha` (Sidak): 1 - (1 - alpha)^(1/tests).
+pub fn sidak_alpha(alpha: f64, tests: usize) -> f64 {
+    1.0 - (1.0 - alpha).powf(1.0 / tests as f64)
+}
+
+/// Two-sided z threshold for a family of `tests` tests at family-wise significance `alpha` (Sidak).
 pub fn sidak_z(alpha: f64, tests: usize) -> f64 {
-    let per_test = 1.0 - (1.0 - alpha).powf(1.0 / tests as f64);
-    Normal::new(0.0, 1.0).unwrap().inverse_cdf(1.0 - per_test / 2.0)
+    Normal::new(0.0, 1.0).unwrap().inverse_cdf(1.0 - sidak_alpha(alpha, tests) / 2.0)
 }
 
 /// Expected sample counts of `samples` draws from a solid-angle `density(theta, phi)` in
@@ -196,33 +201,135 @@ pub fn from_half_diff(theta_h: f64, theta_d: f64, phi_d: f64, phi_h: f64) -> (gl
     (wo.as_vec3(), wi.as_vec3())
 }
 
-/// Per-block means and variances of the mean of 8x8-pixel blocks.
-pub fn blocks(s: &Snapshot) -> Vec<(DVec3, DVec3)> {
-    let per_side = s.width / 8;
-    let mut out = vec![(DVec3::ZERO, DVec3::ZERO); (per_side * per_side) as usize];
-    for y in 0..s.height {
-        for x in 0..s.width {
-            let i = (y * s.width + x) as usize;
-            let b = &mut out[((y / 8) * per_side + x / 8) as usize];
-            b.0 += s.mean[i].as_dvec3() / 64.0;
-            b.1 += s.variance[i].as_dvec3() / (64.0 * 64.0);
-        }
+/// Means and variances of the mean of a `width` x `height` image's `block` x `block` pixel blocks, row by row,
+/// from its row-major (mean, variance) pixels; blocks at the right and bottom edges average the pixels left.
+pub fn block_stats(
+    width: u32,
+    height: u32,
+    block: u32,
+    pixels: impl IntoIterator<Item = (DVec3, DVec3)>,
+) -> Vec<(DVec3, DVec3)> {
+    let (across, down) = (width.div_ceil(block), height.div_ceil(block));
+    let mut out = vec![(DVec3::ZERO, DVec3::ZERO); (across * down) as usize];
+    let mut count = 0;
+    for (i, (mean, variance)) in pixels.into_iter().enumerate() {
+        let (x, y) = (i as u32 % width, i as u32 / width);
+        let (bx, by) = (x / block, y / block);
+        let n = (block.min(width - bx * block) * block.min(height - by * block)) as f64;
+        let b = &mut out[(by * across + bx) as usize];
+        b.0 += mean / n;
+        b.1 += variance / (n * n);
+        count += 1;
     }
+    assert_eq!(count, width * height, "a {width}x{height} image");
     out
 }
 
-/// Asserts the block means of `test` agree with `reference` (z-tests at `z_max`).
-pub fn assert_blocks_agree(test: &Snapshot, reference: &Snapshot, z_max: f64, label: &str) {
-    assert_eq!(test.rejected, 0, "{label}: NaN/Inf samples");
-    for (b, (t, r)) in blocks(test).iter().zip(blocks(reference)).enumerate() {
-        for c in 0..3 {
-            let se = (t.1[c] + r.1[c]).sqrt();
+/// `block_stats` of a render's pixel means and variances.
+pub fn blocks(s: &Snapshot, block: u32) -> Vec<(DVec3, DVec3)> {
+    let pixels = s.mean.iter().zip(&s.variance).map(|(m, v)| (m.as_dvec3(), v.as_dvec3()));
+    block_stats(s.width, s.height, block, pixels)
+}
+
+/// Asserts each block mean of `test` in `channels` is within `z_max` standard errors (both blocks' and `floor`,
+/// in quadrature) of `reference`'s, and blocks without error equal; returns the largest |z|.
+pub fn assert_block_means_agree(
+    test: &[(DVec3, DVec3)],
+    reference: &[(DVec3, DVec3)],
+    channels: Range<usize>,
+    floor: f64,
+    z_max: f64,
+    label: &str,
+) -> f64 {
+    assert_eq!(test.len(), reference.len(), "{label}: block counts");
+    let mut worst = 0.0f64;
+    for (b, (t, r)) in test.iter().zip(reference).enumerate() {
+        for c in channels.clone() {
+            let se = (t.1[c] + r.1[c] + floor.powi(2)).sqrt();
             if se == 0.0 {
                 assert_eq!(t.0[c], r.0[c], "{label}: block {b} channel {c}: noiseless blocks differ");
                 continue;
             }
             let z = (t.0[c] - r.0[c]) / se;
-            assert!(z.abs() < z_max, "{label}: block {b} channel {c}: {:.4} vs {:.4} (z = {z:.2})", t.0[c], r.0[c]);
+            worst = worst.max(z.abs());
+            assert!(
+                z.abs() < z_max,
+                "{label}: block {b} channel {c}: {:.5} vs {:.5} (z = {z:.2}, limit {z_max:.2})",
+                t.0[c],
+                r.0[c]
+            );
         }
     }
+    worst
+}
+
+/// `assert_block_means_agree` for two renders' `block`-pixel blocks in every channel, `test` free of NaN/Inf.
+pub fn assert_blocks_agree(test: &Snapshot, reference: &Snapshot, block: u32, z_max: f64, label: &str) -> f64 {
+    assert_eq!(test.rejected, 0, "{label}: NaN/Inf samples");
+    assert_block_means_agree(&blocks(test, block), &blocks(reference, block), 0..3, 0.0, z_max, label)
+}
+
+/// The mean of `n` values of `draw` and its standard error, from their sample variance.
+pub fn mean_and_se(n: usize, mut draw: impl FnMut() -> f64) -> (f64, f64) {
+    let (mut sum, mut sum_sq) = (0.0f64, 0.0f64);
+    for _ in 0..n {
+        let w = draw();
+        sum += w;
+        sum_sq += w * w;
+    }
+    let mean = sum / n as f64;
+    (mean, ((sum_sq / n as f64 - mean * mean).max(0.0) / n as f64).sqrt())
+}
+
+/// Per-channel mean of a render's pixels and its standard error, sqrt(sum of pixel variances) / pixels.
+pub fn image_mean(s: &Snapshot) -> (DVec3, DVec3) {
+    let n = s.mean.len() as f64;
+    let mean = s.mean.iter().map(|p| p.as_dvec3()).sum::<DVec3>() / n;
+    let se = s.variance.iter().map(|v| v.as_dvec3()).sum::<DVec3>().sqrt() / n;
+    (mean, se)
+}
+
+/// Asserts `mean` is within `z_max` standard errors `se` of `expected`, or within 1e-5 of it if `se` is zero.
+pub fn assert_within(mean: f64, se: f64, expected: f64, z_max: f64, label: &str) {
+    if se == 0.0 {
+        assert!((mean - expected).abs() < 1e-5, "{label}: zero-variance mean {mean} != {expected}");
+        return;
+    }
+    let z = (mean - expected) / se;
+    assert!(z.abs() < z_max, "{label}: mean {mean:.5} vs {expected} (z = {z:.2}, se {se:.2e})");
+}
+
+/// `assert_within` for every channel of a render's `image_mean`, free of NaN/Inf; returns the mean.
+pub fn assert_mean(s: &Snapshot, expected: f64, z_max: f64, label: &str) -> DVec3 {
+    assert_eq!(s.rejected, 0, "{label}: NaN/Inf samples");
+    let (mean, se) = image_mean(s);
+    for c in 0..3 {
+        assert_within(mean[c], se[c], expected, z_max, &format!("{label}, channel {c}"));
+    }
+    mean
+}
+
+/// The six sampling switch combinations: importance sampling on and off, each with light sampling Off, Explicit, Mis.
+pub const SWITCHES: [(bool, LightSampling); 6] = [
+    (true, LightSampling::Off),
+    (true, LightSampling::Explicit),
+    (true, LightSampling::Mis),
+    (false, LightSampling::Off),
+    (false, LightSampling::Explicit),
+    (false, LightSampling::Mis),
+];
+
+/// `base` with each of the `SWITCHES`, labelled with the switches it sets.
+pub fn switches(base: Settings) -> impl Iterator<Item = (String, Settings)> {
+    SWITCHES.into_iter().map(move |(importance_sampling, light_sampling)| {
+        let label = format!("importance {importance_sampling}, lights {light_sampling:?}");
+        (label, Settings { importance_sampling, light_sampling, ..base })
+    })
+}
+
+/// The scene of the glTF file at `path` (relative: under tests/assets), panicking with the loader's error.
+pub fn load(path: impl AsRef<Path>) -> SceneDesc {
+    let path = path.as_ref();
+    let path = if path.is_absolute() { path.to_path_buf() } else { asset(path) };
+    gltf::load(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
 }
