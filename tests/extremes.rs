@@ -211,3 +211,27 @@ fn an_empty_scene_renders_black() {
     let snap = common::render(&scene, scene.default_camera(1.0), settings, None);
     assert_finite(&snap, "empty file");
 }
+
+#[test]
+fn a_smooth_metal_brushed_into_a_rough_lobe_stays_finite() {
+    // Roughness 0 with KHR_materials_anisotropy: the lobe is rough along the anisotropy
+    // direction and smooth across it, where a GGX of zero width would divide by zero.
+    let enclosure = Material { emissive: Vec3::ONE, ..Material::lambert("enclosure", Vec3::ZERO) };
+    let brushed = Material {
+        name: "brushed".into(),
+        base_color: Vec3::ONE,
+        metallic: 1.0,
+        roughness: 0.0,
+        anisotropy_strength: 0.8,
+        ..Material::default()
+    };
+    let desc = SceneDesc {
+        meshes: vec![uv_sphere(Vec3::ZERO, 4.0, 8, 16, true, 0), uv_sphere(Vec3::ZERO, 1.0, 12, 24, false, 1)],
+        materials: vec![enclosure, brushed],
+        ..SceneDesc::default()
+    };
+    let scene = Arc::new(Scene::build(desc));
+    let camera = Camera::look_at(Vec3::new(0.0, 0.5, 3.0), Vec3::ZERO, 0.7);
+    let settings = Settings { width: 16, height: 16, max_depth: 5, target_spp: Some(64), ..Settings::default() };
+    assert_finite(&common::render(&scene, camera, settings, None), "brushed");
+}

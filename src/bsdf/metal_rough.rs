@@ -41,7 +41,7 @@ use super::dielectric::Interface;
 use super::microfacet::{Ggx, reflect};
 use super::sheen::Sheen;
 use super::thin_film;
-use super::{BsdfSample, LobeFlags, TransportMode, is_index_matched, is_smooth};
+use super::{BsdfSample, LobeFlags, SMOOTH_ALPHA, TransportMode, is_index_matched, is_smooth};
 use crate::math::{frame::Frame, warp};
 use crate::spectrum::Spectrum;
 use crate::spectrum::sampled::basis_at;
@@ -183,8 +183,16 @@ impl MetalRough {
         self.alpha + (1.0 - self.alpha) * (self.anisotropy * self.anisotropy)
     }
 
+    /// Width of the base's lobes across the anisotropy direction (local y): alpha, but at
+    /// least `SMOOTH_ALPHA` where anisotropy widens the lobe along x, so that a smooth
+    /// material brushed into a rough lobe is not a GGX of zero width, which divides by zero
+    /// (pbrt-v4 clamps both widths likewise).
+    fn alpha_y(&self) -> f32 {
+        if self.anisotropy > 0.0 { self.alpha.max(SMOOTH_ALPHA) } else { self.alpha }
+    }
+
     fn ggx(&self) -> Ggx {
-        Ggx { alpha_x: self.alpha_x(), alpha_y: self.alpha }
+        Ggx { alpha_x: self.alpha_x(), alpha_y: self.alpha_y() }
     }
 
     /// Roughness of the energy-compensation tables, which are isotropic: an anisotropic
@@ -192,7 +200,7 @@ impl MetalRough {
     /// alpha_x alpha_y (the same D(n) at normal incidence), an approximation that is
     /// exact at strength 0 and whose error grows with the aspect ratio alpha_x / alpha_y.
     fn roughness(&self) -> f32 {
-        if self.anisotropy == 0.0 { self.alpha.sqrt() } else { (self.alpha_x() * self.alpha).sqrt().sqrt() }
+        if self.anisotropy == 0.0 { self.alpha.sqrt() } else { (self.alpha_x() * self.alpha_y()).sqrt().sqrt() }
     }
 
     /// Whether the base's GGX lobes are deltas (narrow in both directions).
@@ -737,8 +745,7 @@ mod tests {
 
     /// The glTF BSDF over a grid of its reflecting layers, with labels: white and coloured
     /// bases, metallic, roughness (smooth to 1), specular, sheen, clearcoat (on the base's
-    /// normal), anisotropy and a refracting interface. Anisotropy only on rough lobes: at
-    /// roughness 0 it makes a GGX lobe of alpha_y 0, which evaluates to NaN.
+    /// normal), anisotropy (on smooth materials too) and a refracting interface.
     fn layered() -> Vec<(String, MetalRough)> {
         let mut out = Vec::new();
         for base in [Vec3::ONE, Vec3::new(0.9, 0.5, 0.2)] {
@@ -747,9 +754,6 @@ mod tests {
                     for specular in [0.0f32, 0.5, 1.0] {
                         for (sheen, clearcoat) in [(0.0f32, 0.0f32), (0.8, 0.0), (0.0, 1.0), (0.8, 1.0)] {
                             for (anisotropy, transmission) in [(0.0f32, 0.0f32), (0.7, 0.0), (0.0, 0.6)] {
-                                if roughness == 0.0 && anisotropy > 0.0 {
-                                    continue;
-                                }
                                 let m = MetalRough {
                                     base: Spectrum::from_rgb(base),
                                     metallic,

@@ -34,11 +34,12 @@ pub(crate) const TRIANGLE: u64 = 3 * (bytes_of::<[Vec3; 3]>() + bytes_of::<TriAt
 /// mesh has a second UV set, vertex colours or tangents.
 pub(crate) const TRIANGLE_EXTRA: u64 = 3 * bytes_of::<TriExtra>();
 
-/// An emissive triangle in the light sampler: its candidate (light, power) pushed with
-/// slack, its weight, the alias table's pmf, bins and build lists (scaled weights and the
-/// small and large index lists), its light reference and its triangle pmf. Counted for
-/// every triangle when any material emits.
-pub(crate) const EMISSIVE_TRIANGLE: u64 = 2 * 12 + 8 + (4 + 8 + 8 + 2 * 8) + 8 + 4;
+/// An emissive triangle in the light sampler: its `TriangleLight` (12 bytes) pushed with
+/// slack, its candidate (`Light`, power) (24), its weight, the alias table's pmf, bins and
+/// build lists (scaled weights and the small and large index lists), its `Light` in the
+/// sampler (16) and its choice probability and area. Counted for every triangle when any
+/// material emits.
+pub(crate) const EMISSIVE_TRIANGLE: u64 = 2 * 12 + 24 + 8 + (4 + 8 + 8 + 2 * 8) + 16 + 8;
 
 /// A placed triangle's probability in the light sampler (an f32 per placed triangle), held
 /// when any material emits.
