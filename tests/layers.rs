@@ -6,10 +6,11 @@ use std::collections::BTreeSet;
 use std::path::Path;
 
 /// Each module and what it may use (macros count as their module: `params!`, `choice_enum!`).
+/// The parameter tables come first: math declares its sampler choice with `choice_enum!`.
 const ALLOWED: &[(&str, &[&str])] = &[
-    ("math", &[]),
-    ("memory", &[]),
     ("params", &[]),
+    ("math", &["params"]),
+    ("memory", &[]),
     ("spectrum", &["math"]),
     ("bsdf", &["math", "spectrum"]),
     ("medium", &["math", "spectrum"]),

@@ -116,7 +116,8 @@ pub fn sample_pixel(
     index: u64,
     aovs: bool,
 ) -> PathOutput {
-    sample(scene, settings, view, (pixel, &sequence(settings, pixel), edges(settings, view, pixel)), index, aovs)
+    let pixel = Pixel { at: pixel, sequence: &sequence(settings, pixel), edges: edges(settings, view, pixel) };
+    sample(Context { scene, settings }, view, pixel, index, aovs)
 }
 
 /// Samples `indices` of `pixel`, each handed to `add` with its index: the bits of
@@ -131,7 +132,8 @@ pub fn sample_pixels(
     mut add: impl FnMut(u64, PathOutput),
 ) {
     let (sequence, edges) = (sequence(settings, pixel), edges(settings, view, pixel));
-    indices.for_each(|i| add(i, sample(scene, settings, view, (pixel, &sequence, edges), i, aovs)));
+    let (cx, pixel) = (Context { scene, settings }, Pixel { at: pixel, sequence: &sequence, edges });
+    indices.for_each(|i| add(i, sample(cx, view, pixel, i, aovs)));
 }
 
 /// The outlines of seen emitters partly covering `pixel`, if `settings` ask for their
@@ -145,16 +147,19 @@ fn sequence(settings: &Settings, pixel: UVec2) -> PixelSequence {
     PixelSequence::new(settings.sampler, settings.replicates(), pixel, settings.seed)
 }
 
-/// `sample_pixel` with the pixel's sequence.
+/// What a pixel's samples share: where it is, its numbers, and the outlines of seen
+/// emitters that cover part of it.
+#[derive(Clone, Copy)]
+struct Pixel<'a> {
+    at: UVec2,
+    sequence: &'a PixelSequence,
+    edges: PixelEdges<'a>,
+}
+
+/// `sample_pixel` with what the pixel's samples share.
 #[inline]
-fn sample(
-    scene: &Scene,
-    settings: &Settings,
-    view: &View,
-    (pixel, sequence, edges): (UVec2, &PixelSequence, PixelEdges),
-    index: u64,
-    aovs: bool,
-) -> PathOutput {
+fn sample(cx: Context, view: &View, Pixel { at: pixel, sequence, edges }: Pixel, index: u64, aovs: bool) -> PathOutput {
+    let Context { scene, settings } = cx;
     let mut sampler = sequence.sampler(index);
     let offset = pixel_offset(settings, pixel, index, &mut sampler);
     let ray = view.rays.ray(pixel.as_vec2() + offset);
@@ -165,7 +170,6 @@ fn sample(
     } else {
         Wavelengths::Rgb
     };
-    let cx = Context { scene, settings };
     let mut out = match (settings.integrator, scene.features.media) {
         (Integrator::Path, false) => super::path::radiance::<false>(cx, ray, media, &mut sampler, &mut wl, aovs),
         (Integrator::Path, true) => super::path::radiance::<true>(cx, ray, media, &mut sampler, &mut wl, aovs),
