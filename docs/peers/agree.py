@@ -3,7 +3,8 @@
 Usage, in a Python 3.11 venv with the `bpy` wheel from PyPI (5.0.1 here) and numpy, from the
 repository root after `cargo build --release`:
     /tmp/cycles-venv/bin/python docs/peers/agree.py [MODEL.glb ...] [--spp 256] [--size 256]
-Without models it runs the standing list (MODELS below). Each model is rendered by
+Without models it runs the standing list (MODELS below); MODEL@N looks through the file's
+camera N. Each model is rendered by
 `target/release/lucent render --background 1,1,1` and by Cycles (the glTF importer's
 Principled BSDF, a world of radiance 1), both through the file's first camera or, for a file
 without one, Lucent's framing camera (placed in Blender by cycles.py), at the same
@@ -36,9 +37,9 @@ MODELS = [
     "MetalRoughSpheresNoTextures/glTF-Binary/MetalRoughSpheresNoTextures.glb",
     "SpecularTest/glTF-Binary/SpecularTest.glb",
     "TransmissionRoughnessTest/glTF-Binary/TransmissionRoughnessTest.glb",
-    # Clearcoat (the body), sheen (the fabric) and transmission (the windows), through the
-    # file's first camera.
-    "ToyCar/glTF/ToyCar.gltf",
+    # Clearcoat (the body), sheen (the fabric seats) and transmission (the windows), through
+    # the file's second camera, which sees the seats.
+    "ToyCar/glTF/ToyCar.gltf@1",
 ]
 
 # Differences the two material models explain (not bugs), by model and object-name prefix.
@@ -71,14 +72,14 @@ NOTES = {
 }
 
 
-def render_lucent(binary, model, out, a):
+def render_lucent(binary, model, camera, out, a):
     cmd = [binary, "render", model, "--background", "1,1,1", "--spp", str(a.spp), "--width",
            str(a.size), "--height", str(a.size), "--max-depth", str(a.max_depth), "--seed", "1",
-           "--out", out]
+           "--camera", str(camera), "--out", out]
     subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
 
 
-def render_cycles(bpy, model, out, a):
+def render_cycles(bpy, model, camera, out, a):
     """Cycles' image of `model` under a uniform white world, and the scene it rendered."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
     bpy.ops.import_scene.gltf(filepath=os.path.abspath(model))
@@ -88,7 +89,7 @@ def render_cycles(bpy, model, out, a):
     args = argparse.Namespace(spp=a.spp, width=a.size, height=a.size, max_depth=a.max_depth,
                               rr_depth=a.max_depth + 1, seed=1, threads=2)
     peer.configure(bpy, scene, args)
-    peer.place_camera(bpy, scene, doc, 0)
+    peer.place_camera(bpy, scene, doc, camera)
     world = bpy.data.worlds.new("white")
     if world.node_tree is None:
         world.use_nodes = True
@@ -143,11 +144,11 @@ def note(model, name):
     return ""
 
 
-def compare(bpy, model, a, tmp):
+def compare(bpy, model, camera, a, tmp):
     stem = os.path.splitext(os.path.basename(model))[0]
     lucent_out, cycles_out = os.path.join(tmp, stem + ".lucent.exr"), os.path.join(tmp, stem + ".cycles.exr")
-    render_lucent(a.lucent, model, lucent_out, a)
-    scene = render_cycles(bpy, model, cycles_out, a)
+    render_lucent(a.lucent, model, camera, lucent_out, a)
+    scene = render_cycles(bpy, model, camera, cycles_out, a)
     ids = object_ids(bpy, scene, a.size)
     lum = [0.2126, 0.7152, 0.0722]
     lucent, cycles = pixels(bpy, lucent_out, a.size) @ lum, pixels(bpy, cycles_out, a.size) @ lum
@@ -220,7 +221,9 @@ def ratio(values):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("models", nargs="*", help="glTF files (default: the standing list)")
+    ap.add_argument("models", nargs="*", help="glTF files, each optionally @N for the file's camera N "
+                    "(0-based, in Lucent's order; default: the first, or the framing camera); "
+                    "default: the standing list")
     ap.add_argument("--spp", type=int, default=256)
     ap.add_argument("--size", type=int, default=256, help="image width and height")
     ap.add_argument("--max-depth", type=int, default=16)
@@ -232,11 +235,12 @@ def main():
     with tempfile.TemporaryDirectory(prefix="lucent-agree-") as tmp:
         if a.keep:
             os.makedirs(a.keep, exist_ok=True)
-        for model in models:
+        for entry in models:
+            model, _, camera = entry.partition("@")
             if not os.path.exists(model):
                 print(f"\n{model}: not found")
                 continue
-            compare(bpy, model, a, os.path.abspath(a.keep) if a.keep else tmp)
+            compare(bpy, model, int(camera or 0), a, os.path.abspath(a.keep) if a.keep else tmp)
 
 
 if __name__ == "__main__":
