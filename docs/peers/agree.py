@@ -40,6 +40,8 @@ MODELS = [
     # Clearcoat (the body), sheen (the fabric seats) and transmission (the windows), through
     # the file's second camera, which sees the seats.
     "ToyCar/glTF/ToyCar.gltf@1",
+    # KHR_materials_sheen alone under the open sky (written by docs/scenes/make_sheen_spheres.py).
+    "../../docs/scenes/sheen-spheres.gltf",
 ]
 
 # Differences the two material models explain (not bugs), by model and object-name prefix.
@@ -63,6 +65,10 @@ NOTES = {
                 "ratio falls with roughness, #1 to #9)"),
         ("", "opaque surfaces"),
     ],
+    "sheen-spheres": [
+        ("", "sheen: glTF's Charlie lobe with Ashikhmin's visibility, its albedo taken from the base "
+             "beneath (Lucent), against Cycles' microfiber sheen layered over the Principled base"),
+    ],
     "ToyCar": [
         ("Fabric", "sheen: glTF's Charlie lobe (Lucent) against Cycles' microfiber sheen"),
         ("Glass", "thin-walled glass (glTF without KHR_materials_volume) against the refracting "
@@ -75,7 +81,7 @@ NOTES = {
 def render_lucent(binary, model, camera, out, a):
     cmd = [binary, "render", model, "--background", "1,1,1", "--spp", str(a.spp), "--width",
            str(a.size), "--height", str(a.size), "--max-depth", str(a.max_depth), "--seed", "1",
-           "--camera", str(camera), "--out", out]
+           "--out", out] + (["--camera", str(camera)] if camera else [])
     subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
 
 
