@@ -1,8 +1,9 @@
 //! A KHR_lights_punctual directional light: parallel light of a given irradiance.
 
-use super::{LightSample, LightTarget};
+use super::{Disc, LightLeSample, LightSample, LightTarget};
+use crate::scene::geometry::Ray;
 use crate::spectrum::Spectrum;
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 
 /// A directional light.
 #[derive(Clone, Debug, PartialEq)]
@@ -21,6 +22,15 @@ impl DirectionalLight {
             return None;
         }
         Some(LightSample { wi, radiance, pdf: pmf, target: LightTarget::Infinite, is_delta: true })
+    }
+
+    /// A ray of the light entering the scene through a point of `disc` (`u_pos`), carrying
+    /// the irradiance.
+    pub fn sample_le(&self, disc: Disc, u_pos: Vec2) -> Option<LightLeSample> {
+        let d = self.direction;
+        let ray = Ray { o: disc.point(d, u_pos), d, tmax: f32::INFINITY };
+        let radiance = Spectrum::from_illuminant_rgb(self.irradiance);
+        Some(LightLeSample { ray, n: None, radiance, pdf_pos: disc.pdf(), pdf_dir: 1.0 })
     }
 
     /// Power (luminance) reaching a scene of radius `scene_radius`, for choosing among

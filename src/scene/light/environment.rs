@@ -3,8 +3,9 @@
 //! Map directions are importance-sampled by a 2D piecewise-constant density over the
 //! texels, in proportion to radiance x sin(theta).
 
-use super::{LightSample, LightTarget};
+use super::{Disc, LightLeSample, LightSample, LightTarget};
 use crate::math::{distribution::Distribution2D, luminance, warp, wrap_index};
+use crate::scene::geometry::Ray;
 use crate::scene::rgbe::Texels;
 use crate::spectrum::Spectrum;
 use glam::{Vec2, Vec3};
@@ -254,6 +255,18 @@ impl Environment {
             return None;
         }
         Some(LightSample { wi, radiance, pdf: pmf * pdf, target: LightTarget::Infinite, is_delta: false })
+    }
+
+    /// A ray of the environment's light entering the scene: a direction drawn as `sample`
+    /// draws it (`u_dir`), light travelling opposite to it, through a point of `disc`
+    /// (`u_pos`).
+    pub fn sample_le(&self, disc: Disc, u_pos: Vec2, u_dir: Vec2) -> Option<LightLeSample> {
+        let (wi, radiance, pdf_dir) = self.sample(u_dir)?;
+        if radiance.is_black() {
+            return None;
+        }
+        let ray = Ray { o: disc.point(-wi, u_pos), d: -wi, tmax: f32::INFINITY };
+        Some(LightLeSample { ray, n: None, radiance, pdf_pos: disc.pdf(), pdf_dir })
     }
 
     /// Solid-angle density with which `sample` returns unit world direction `d`.

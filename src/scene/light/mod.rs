@@ -2,8 +2,9 @@
 //! triangles, KHR_lights_punctual point, spot and directional lights, the environment),
 //! a sampler that picks among them in proportion to their power, and the interface the
 //! integrators sample lights through: `Scene::sample_li` beside its density
-//! `Scene::pdf_li` (pbrt-v4's `Light::SampleLi` and `PDF_Li`). Shadow rays are the
-//! integrator's: a sample says where its shadow ray ends.
+//! `Scene::pdf_li` (pbrt-v4's `Light::SampleLi` and `PDF_Li`), and for paths that start at
+//! the lights, `Light::sample_le` beside `Light::pdf_le` (pbrt-v4's `SampleLe` and
+//! `PDF_Le`). Shadow rays are the integrator's: a sample says where its shadow ray ends.
 
 pub mod directional;
 pub mod environment;
@@ -20,7 +21,8 @@ pub use sampler::LightSampler;
 pub use spot::{Cone, SpotLight};
 pub use triangle::TriangleLight;
 
-use super::{Scene, Surface};
+use super::{Scene, Surface, geometry::Ray};
+use crate::math::{frame::Frame, warp};
 use crate::spectrum::Spectrum;
 use glam::{Vec2, Vec3};
 
@@ -53,6 +55,35 @@ impl Light {
             Light::Spot(l) => l.sample_li(p, pmf),
             Light::Directional(l) => l.sample_li(pmf),
             Light::Environment => scene.environment.as_ref()?.sample_li(u, pmf),
+        }
+    }
+
+    /// A ray leaving the light, for the uniforms `u_pos` (where on it) and `u_dir` (which
+    /// way); None where it carries nothing.
+    pub fn sample_le(&self, scene: &Scene, u_pos: Vec2, u_dir: Vec2) -> Option<LightLeSample> {
+        match self {
+            Light::Triangle(t) => t.sample_le(scene, u_pos, u_dir),
+            Light::Point(l) => l.sample_le(u_dir),
+            Light::Spot(l) => l.sample_le(u_dir),
+            Light::Directional(l) => l.sample_le(Disc::around(scene), u_pos),
+            Light::Environment => scene.environment.as_ref()?.sample_le(Disc::around(scene), u_pos, u_dir),
+        }
+    }
+
+    /// The densities with which `sample_le` returns a ray leaving along `w` from a point of
+    /// (geometric) normal `n`: (per unit area of the origin, per solid angle of the
+    /// direction). Delta distributions give 0 for what they fix (a point's direction is
+    /// free, a directional light's is not).
+    pub fn pdf_le(&self, scene: &Scene, n: Vec3, w: Vec3) -> (f32, f32) {
+        match self {
+            Light::Triangle(t) => t.pdf_le(n, w),
+            Light::Point(_) => (0.0, warp::UNIFORM_SPHERE_PDF),
+            Light::Spot(l) => (0.0, l.pdf_dir(w)),
+            Light::Directional(_) => (Disc::around(scene).pdf(), 0.0),
+            Light::Environment => match &scene.environment {
+                Some(env) => (Disc::around(scene).pdf(), env.pdf(-w)),
+                None => (0.0, 0.0),
+            },
         }
     }
 
@@ -102,6 +133,52 @@ pub struct LightSample {
     pub target: LightTarget,
     /// The light is a delta (point, spot, directional): BSDF sampling cannot find it.
     pub is_delta: bool,
+}
+
+/// A ray leaving a light (pbrt-v4's `LightLeSample`), for paths that start at lights.
+#[derive(Clone, Copy, Debug)]
+pub struct LightLeSample {
+    /// The ray: its origin on the light (for light from infinitely far, on a disc facing
+    /// the scene from outside its bounding sphere) and its unit direction.
+    pub ray: Ray,
+    /// The emitting surface's geometric normal at the origin (area lights only).
+    pub n: Option<Vec3>,
+    /// What leaves along the ray: radiance for area lights and the environment, radiant
+    /// intensity for point and spot lights, irradiance for directional lights.
+    pub radiance: Spectrum,
+    /// Density of the origin per unit area (1 for a point light's one point).
+    pub pdf_pos: f32,
+    /// Density of the direction per solid angle (1 for a directional light's one direction).
+    pub pdf_dir: f32,
+}
+
+/// The disc that light from infinitely far away crosses on its way into the scene: centred
+/// on the scene's bounding sphere, of its radius, facing the light's direction from the
+/// sphere's edge (pbrt-v4's infinite lights' `SampleLe`).
+#[derive(Clone, Copy, Debug)]
+pub struct Disc {
+    centre: Vec3,
+    radius: f32,
+}
+
+impl Disc {
+    /// The disc of `scene`'s bounding sphere.
+    pub fn around(scene: &Scene) -> Self {
+        Self { centre: 0.5 * (scene.bounds.0 + scene.bounds.1), radius: scene.radius().max(f32::MIN_POSITIVE) }
+    }
+
+    /// A point on the disc facing travel direction `d` (unit), outside the sphere, for the
+    /// uniforms `u`.
+    pub fn point(&self, d: Vec3, u: Vec2) -> Vec3 {
+        let p = warp::concentric_disk(u) * self.radius;
+        let frame = Frame::from_normal(d);
+        self.centre + frame.to_world(Vec3::new(p.x, p.y, 0.0)) - d * self.radius
+    }
+
+    /// Density of `point` per unit area.
+    pub fn pdf(&self) -> f32 {
+        1.0 / (std::f32::consts::PI * self.radius * self.radius)
+    }
 }
 
 /// Light a BSDF-sampled ray found, for `Scene::pdf_li`.

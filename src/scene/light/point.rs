@@ -1,9 +1,11 @@
 //! A KHR_lights_punctual point light: radiant intensity the same in every direction.
 
 use super::punctual::range_window;
-use super::{LightSample, LightTarget};
+use super::{LightLeSample, LightSample, LightTarget};
+use crate::math::warp;
+use crate::scene::geometry::Ray;
 use crate::spectrum::Spectrum;
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 
 /// A point light placed in the world.
 #[derive(Clone, Debug, PartialEq)]
@@ -27,6 +29,15 @@ impl PointLight {
             return None;
         }
         Some(LightSample { wi, radiance, pdf: pmf, target: LightTarget::Point(self.position), is_delta: true })
+    }
+
+    /// A ray leaving the light in a direction uniform over the sphere (`u_dir`), carrying
+    /// the intensity; `range` windows the light where a path meets a surface, not here.
+    pub fn sample_le(&self, u_dir: Vec2) -> Option<LightLeSample> {
+        let d = warp::uniform_sphere(u_dir);
+        let ray = Ray { o: self.position, d, tmax: f32::INFINITY };
+        let radiance = Spectrum::from_illuminant_rgb(self.intensity);
+        Some(LightLeSample { ray, n: None, radiance, pdf_pos: 1.0, pdf_dir: warp::UNIFORM_SPHERE_PDF })
     }
 
     /// Emitted power (luminance), for choosing among lights: 4 pi times the intensity.

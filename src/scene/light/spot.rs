@@ -2,9 +2,11 @@
 //! smooth falloff between its inner and outer angles.
 
 use super::punctual::range_window;
-use super::{LightSample, LightTarget};
+use super::{LightLeSample, LightSample, LightTarget};
+use crate::math::frame::Frame;
+use crate::scene::geometry::Ray;
 use crate::spectrum::Spectrum;
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 
 /// A spot light's cone: the glTF angles from its axis, and one minus their cosines, in
 /// which the falloff is computed (1 - cos keeps its precision for cones of a fraction of a
@@ -99,6 +101,32 @@ impl SpotLight {
             return None;
         }
         Some(LightSample { wi, radiance, pdf: pmf, target: LightTarget::Point(self.position), is_delta: true })
+    }
+
+    /// A ray leaving the light in a direction uniform over the outer cone (`u_dir`: 1 - cos
+    /// uniform in [0, 1 - cos outer], the azimuth uniform), carrying the intensity there.
+    pub fn sample_le(&self, u_dir: Vec2) -> Option<LightLeSample> {
+        let vers = u_dir.x * self.cone.vers_outer;
+        let cos = 1.0 - vers;
+        let sin = (vers * (2.0 - vers)).max(0.0).sqrt();
+        let phi = std::f32::consts::TAU * u_dir.y;
+        let local = Vec3::new(sin * phi.cos(), sin * phi.sin(), cos);
+        let d = Frame::from_normal(self.direction).to_world(local);
+        let radiance = Spectrum::from_illuminant_rgb(self.intensity) * self.cone.falloff(vers);
+        if radiance.is_black() || !d.is_finite() {
+            return None;
+        }
+        let ray = Ray { o: self.position, d, tmax: f32::INFINITY };
+        Some(LightLeSample { ray, n: None, radiance, pdf_pos: 1.0, pdf_dir: self.pdf_dir(d) })
+    }
+
+    /// `sample_le`'s density of direction `w` (unit) per solid angle.
+    pub fn pdf_dir(&self, w: Vec3) -> f32 {
+        if versine_between(w, self.direction) <= self.cone.vers_outer {
+            1.0 / (std::f32::consts::TAU * self.cone.vers_outer)
+        } else {
+            0.0
+        }
     }
 
     /// Emitted power (luminance), for choosing among lights: the intensity times the

@@ -2,9 +2,10 @@
 //! density converted to solid angle, and each triangle's power for choosing among lights
 //! (a textured emitter weighted by its texture over the triangle's footprint).
 
-use super::{LightSample, LightTarget};
-use crate::math::{luminance, warp};
+use super::{LightLeSample, LightSample, LightTarget};
+use crate::math::{float::offset_ray_origin, frame::Frame, luminance, warp};
 use crate::scene::geometry::Geometry;
+use crate::scene::geometry::Ray;
 use crate::scene::material::{Material, TexRef};
 use crate::scene::texture::{ColorSpace, Image, Texture};
 use crate::scene::{Scene, Surface};
@@ -43,6 +44,33 @@ impl TriangleLight {
         let pdf = pmf * dist2 / (cos_light * self.area);
         let target = LightTarget::Surface { p: q, error, n: ng };
         Some(LightSample { wi, radiance, pdf, target, is_delta: false })
+    }
+}
+
+impl TriangleLight {
+    /// A ray leaving the triangle's front: a point uniform over its area (`u_pos`) and a
+    /// cosine-weighted direction about its normal (`u_dir`), Lambertian emission's.
+    pub fn sample_le(&self, scene: &Scene, u_pos: Vec2, u_dir: Vec2) -> Option<LightLeSample> {
+        let b = warp::uniform_triangle(u_pos);
+        let (q, error, ng, material) = scene.light_position(self.tri, b);
+        let local = warp::cos_hemisphere(u_dir);
+        let d = Frame::from_normal(ng).to_world(local);
+        let radiance = match scene.materials[material as usize].uniform_emission() {
+            Some(radiance) => radiance,
+            None => scene.emission(&scene.light_point(self.tri, b)),
+        };
+        if radiance.is_black() || local.z <= 0.0 || !d.is_finite() {
+            return None;
+        }
+        let ray = Ray { o: offset_ray_origin(q, error, ng, d), d, tmax: f32::INFINITY };
+        let (pdf_pos, pdf_dir) = (1.0 / self.area, warp::cos_hemisphere_pdf(local.z));
+        Some(LightLeSample { ray, n: Some(ng), radiance, pdf_pos, pdf_dir })
+    }
+
+    /// `sample_le`'s densities for a ray leaving along `w` from a point of normal `n`.
+    pub fn pdf_le(&self, n: Vec3, w: Vec3) -> (f32, f32) {
+        let cos = n.dot(w);
+        (1.0 / self.area, if cos > 0.0 { warp::cos_hemisphere_pdf(cos) } else { 0.0 })
     }
 }
 
