@@ -6,7 +6,9 @@
 //!
 //! - a material's properties that differ from the file, each where
 //!   `scene::edit::MATERIAL_PARAMS` says it lives, the extensions it adds listed in
-//!   `extensionsUsed`; an edited glTF default material (for primitives without one) is added;
+//!   `extensionsUsed`, and those that no longer apply removed (alphaCutoff once the
+//!   alphaMode is not MASK); an edited glTF default material (for primitives without one) is
+//!   added;
 //! - a light's KHR_lights_punctual entry (colour, intensity, cone angles); lights sharing an
 //!   entry but edited apart get a copy of it;
 //! - the node placing a moved or turned light: its local transform becomes inverse(parent

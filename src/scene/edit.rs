@@ -300,7 +300,7 @@ pub struct TextureSlot<T: 'static> {
 
 /// One parameter of a material or light `T`.
 pub struct Param<T: 'static> {
-    /// Key in view files, the field's name, e.g. "roughness".
+    /// Key in view files (the field's name, for a parameter that is one field), e.g. "roughness".
     pub key: &'static str,
     /// One line of help.
     pub help: &'static str,
@@ -336,7 +336,7 @@ struct Field<T> {
 
 impl<T> Param<T> {
     /// A parameter of `kind` at `path` in `section`'s object, whose view-file key is `key`:
-    /// always applying, untextured, with `Material::default()`'s default.
+    /// always applying, untextured, with `T::default()`'s default.
     const fn new(key: &'static str, section: Section, path: &'static str, kind: Kind, field: Field<T>) -> Self {
         Param {
             key,
@@ -438,7 +438,7 @@ fn keys(section: Section, path: &'static str) -> impl Iterator<Item = &'static s
 }
 
 /// The JSON at `keys` in `json`; None where it is absent or null.
-fn lookup<'a>(json: &'a Value, mut keys: impl Iterator<Item = &'static str>) -> Option<&'a Value> {
+fn lookup(json: &Value, mut keys: impl Iterator<Item = &'static str>) -> Option<&Value> {
     keys.try_fold(json, |v, k| v.get(k)).filter(|v| !v.is_null())
 }
 
@@ -452,17 +452,26 @@ pub fn find<T>(table: &'static [Param<T>], key: &str) -> Option<&'static Param<T
     table.iter().find(|p| p.key == key)
 }
 
+/// Applies to every material or light.
 fn always<T>(_: &T) -> bool {
     true
 }
 
+/// A factor in [0, 1].
 const UNIT: Kind = Kind::Number { min: 0.0, max: 1.0 };
+/// A finite number of at least 0.
 const NON_NEGATIVE: Kind = Kind::Number { min: 0.0, max: f32::MAX };
+/// An index of refraction: a finite number of at least 1.
 const AT_LEAST_ONE: Kind = Kind::Number { min: 1.0, max: f32::MAX };
+/// Any finite number.
 const FINITE: Kind = Kind::Number { min: f32::MIN, max: f32::MAX };
+/// A distance above 0, or infinite (glTF's "absent").
 const POSITIVE_OR_INFINITE: Kind = Kind::Number { min: f32::MIN_POSITIVE, max: f32::INFINITY };
+/// A Henyey-Greenstein g that the phase function can sample.
 const HENYEY_GREENSTEIN_G: Kind = Kind::Number { min: -MAX_G, max: MAX_G };
+/// A colour of channels in [0, 1].
 const UNIT_COLOUR: Kind = Kind::Colour { max: 1.0 };
+/// A colour of finite channels of at least 0.
 const NON_NEGATIVE_COLOUR: Kind = Kind::Colour { max: f32::MAX };
 
 /// glTF's alphaMode names.
@@ -696,7 +705,9 @@ fn set_outer_cone(l: &mut PunctualLight, v: ParamValue) {
     l.kind = PunctualKind::Spot(Cone::new(spot(l).inner(), v.number()));
 }
 
+/// A spot light's inner cone angle: 0 to a right angle.
 const INNER_CONE: Kind = Kind::Number { min: 0.0, max: std::f32::consts::FRAC_PI_2 };
+/// A spot light's outer cone angle: above 0, up to a right angle.
 const OUTER_CONE: Kind = Kind::Number { min: f32::MIN_POSITIVE, max: std::f32::consts::FRAC_PI_2 };
 
 /// Every punctual-light parameter the loader reads.
