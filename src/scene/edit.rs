@@ -795,6 +795,17 @@ mod tests {
     }
 
     #[test]
+    fn every_parameter_has_its_own_key_and_place_in_a_section_the_editor_shows() {
+        for (i, p) in MATERIAL_PARAMS.iter().enumerate() {
+            assert!(Section::MATERIAL.contains(&p.section), "{}: its section is shown", p.key);
+            let same =
+                |q: &Param<Material>| q.key == p.key || (q.section, q.path, q.part) == (p.section, p.path, p.part);
+            assert!(!MATERIAL_PARAMS[..i].iter().any(same), "{} twice", p.key);
+            assert!(!p.help.is_empty() && !p.help.starts_with(' '), "{}: {:?}", p.key, p.help);
+        }
+    }
+
+    #[test]
     fn alpha_cutoff_applies_in_mask_mode_only_and_spot_cones_are_ordered() {
         let mut m = Material::default();
         let cutoff = find(MATERIAL_PARAMS, "alpha_cutoff").unwrap();
