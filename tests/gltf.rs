@@ -707,3 +707,19 @@ fn anisotropy_iridescence_and_clearcoat_normals_are_read_with_the_specs_defaults
     assert_eq!((plain_coat.clearcoat_normal_tex, plain_coat.clearcoat_normal_scale), (None, 1.0));
     assert!(desc.warnings.iter().all(|w| !w.contains("not supported")), "{:?}", desc.warnings);
 }
+
+#[test]
+fn what_a_material_leaves_out_is_gltfs_default() {
+    use lucent::scene::{edit::Section, material::Material};
+    let empty: serde_json::Map<String, Value> =
+        Section::MATERIAL.iter().filter_map(|s| s.extension()).map(|e| (e.to_string(), json!({}))).collect();
+    let materials = json!([{"name": "bare"}, {"name": "empty extensions", "extensions": empty}]);
+    let desc = gltf::load(&with_materials(materials, 0)).unwrap_or_else(|e| panic!("{e}"));
+    for m in &desc.materials[..2] {
+        // glTF's default material is single-sided; Lucent's own default is double-sided.
+        let default =
+            Material { name: m.name.clone(), file_index: m.file_index, double_sided: false, ..Material::default() };
+        assert_eq!(*m, default, "{}", m.name);
+    }
+    assert!(desc.warnings.iter().all(|w| !w.contains("material")), "{:?}", desc.warnings);
+}

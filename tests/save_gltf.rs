@@ -12,7 +12,7 @@ use lucent::config::ViewFile;
 use lucent::film::tonemap::Display;
 use lucent::integrator::Settings;
 use lucent::loader::{builtin, gltf, save};
-use lucent::scene::edit::{Kind, LIGHT_PARAMS, MATERIAL_PARAMS, Param, ParamValue, light_problem};
+use lucent::scene::edit::{Kind, LIGHT_PARAMS, MATERIAL_PARAMS, Param, ParamValue, find, light_problem};
 use lucent::scene::light::{Cone, PunctualKind, PunctualLight};
 use lucent::scene::material::Material;
 use lucent::scene::{Scene, SceneDesc};
@@ -98,10 +98,13 @@ fn other_value<T>(p: &Param<T>, current: ParamValue, k: usize) -> ParamValue {
 }
 
 /// Every applicable parameter of every material and light changed; the number changed.
+/// But anisotropyStrength: above 0 it makes the loader generate tangents, which splits
+/// vertices (`a_fields_range_and_path_are_the_tables_in_the_reader_view_files_and_the_writer`
+/// saves it).
 fn edit_everything(materials: &mut [Material], lights: &mut [PunctualLight]) -> usize {
     let mut count = 0;
     for (k, m) in materials.iter_mut().enumerate() {
-        for (j, p) in MATERIAL_PARAMS.iter().enumerate() {
+        for (j, p) in MATERIAL_PARAMS.iter().enumerate().filter(|(_, p)| p.key != "anisotropy_strength") {
             if (p.applies)(m) {
                 p.try_set(m, other_value(p, (p.get)(m), 7 * k + j)).unwrap_or_else(|e| panic!("{e}"));
                 count += 1;
@@ -369,6 +372,61 @@ fn the_khronos_validator_finds_no_error_in_saved_files() {
     std::fs::write(&bad, serde_json::to_vec(&doc).unwrap()).unwrap();
     let reports = validate(std::slice::from_ref(&bad)).unwrap();
     assert!(reports[0].0 > 0, "{}", reports[0].1);
+}
+
+/// clearcoatRoughnessFactor's range and place are `MATERIAL_PARAMS`' in all three places:
+/// the reader clamps a file's value beyond the range into it with a warning naming the
+/// range, a view file refuses that value with the same range, and the writer refuses it too
+/// and writes an edit where KHR_materials_clearcoat keeps it (with anisotropyStrength,
+/// which `edit_everything` leaves out).
+#[test]
+fn a_fields_range_and_path_are_the_tables_in_the_reader_view_files_and_the_writer() {
+    let dir = common::scratch("save-table");
+    let p = find(MATERIAL_PARAMS, "clearcoat_roughness").unwrap();
+    let Kind::Number { min, max } = p.kind else { panic!("clearcoat_roughness is a number") };
+    let beyond = max + 0.5;
+    let mut doc: Value = serde_json::from_slice(builtin::cornell_box_gltf()).unwrap();
+    let coat = json!({ "clearcoatFactor": 1.0, "clearcoatRoughnessFactor": beyond });
+    doc["materials"][0]["extensions"] = json!({ "KHR_materials_clearcoat": coat });
+    let source = dir.join("coat.gltf");
+    std::fs::write(&source, serde_json::to_vec(&doc).unwrap()).unwrap();
+    let desc = gltf::load(&source).unwrap_or_else(|e| panic!("{e}"));
+    let name = &desc.materials[0].name;
+    assert_eq!(desc.materials[0].clearcoat_roughness, max, "clamped into the table's range");
+    let warning = format!("material {name:?}: clearcoatRoughnessFactor {beyond} is outside [{min}, {max}]: {max} used");
+    assert!(desc.warnings.contains(&warning), "{warning}: {:?}", desc.warnings);
+
+    let view = |value: f32| {
+        let path = dir.join("v.toml");
+        std::fs::write(&path, format!("[[materials]]\nindex = 0\nname = {name:?}\nclearcoat_roughness = {value:?}\n"))
+            .unwrap();
+        ViewFile::load(&path).unwrap().apply_edits(&mut desc.materials.clone(), &mut desc.lights.clone())
+    };
+    let refused = view(beyond).unwrap_err();
+    assert!(refused.contains(&format!("clearcoat_roughness: {beyond} is not {}", p.kind.range())), "{refused}");
+    view(max).unwrap_or_else(|e| panic!("{e}"));
+
+    let out = dir.join("saved.gltf");
+    let mut edited = desc.materials.clone();
+    let patched = |edited: &[Material]| {
+        save::patched(
+            Some(&source),
+            save::Edits { original: (&desc.materials, &desc.lights), edited: (edited, &desc.lights) },
+            &out,
+        )
+    };
+    edited[0].clearcoat_roughness = beyond;
+    let refused = patched(&edited).unwrap_err();
+    assert!(refused.contains(&format!("clearcoatRoughnessFactor: {beyond} is not {}", p.kind.range())), "{refused}");
+    edited[0].clearcoat_roughness = (min + max) / 2.0;
+    edited[0].anisotropy_strength = 0.75;
+    std::fs::write(&out, patched(&edited).unwrap_or_else(|e| panic!("{e}"))).unwrap();
+    let saved = &json_of(Some(&out))["materials"][0]["extensions"];
+    let written = saved["KHR_materials_clearcoat"]["clearcoatRoughnessFactor"].as_f64();
+    assert_eq!(written.map(|x| x as f32), Some((min + max) / 2.0));
+    assert_eq!(saved["KHR_materials_anisotropy"]["anisotropyStrength"], json!(0.75));
+    let loaded = gltf::load(&out).unwrap_or_else(|e| panic!("{e}"));
+    assert_same_materials(&loaded.materials, &edited, "coat");
 }
 
 #[test]

@@ -13,12 +13,12 @@
 use super::limits::{self, Attributes, Limits, PrimitiveShape, format_bytes};
 use super::resources::{self, Encoded, Tally};
 use super::{LoadError, Refusal, attributes, draco, graph, instancing, meshopt, variants};
-use crate::medium::phase::MAX_G;
 use crate::scene::{
     MeshDesc, SceneDesc,
     camera::Camera,
+    edit::{MATERIAL_PARAMS, Section},
     light::{Cone, LightSource, PunctualKind, PunctualLight},
-    material::{AlphaMode, Material, TexRef, VolumeFactors},
+    material::{Material, TexRef},
     texture::{Image, Texels, Texture, Wrap},
 };
 use glam::{Affine2, Affine3A, DMat3, DMat4, DVec3, Vec2, Vec3, Vec4};
@@ -28,20 +28,9 @@ use image::DynamicImage;
 use std::collections::{BTreeSet, HashMap, HashSet};
 use std::path::Path;
 
-/// Extensions whose every part that matters to shading is honoured.
+/// Extensions besides the material extensions of `MATERIAL_PARAMS`' sections whose every
+/// part that matters to shading is honoured.
 const SUPPORTED_EXTENSIONS: &[&str] = &[
-    "KHR_materials_emissive_strength",
-    "KHR_materials_specular",
-    "KHR_materials_ior",
-    "KHR_materials_dispersion",
-    "KHR_materials_transmission",
-    "KHR_materials_volume",
-    "KHR_materials_volume_scatter",
-    "KHR_materials_clearcoat",
-    "KHR_materials_diffuse_transmission",
-    "KHR_materials_sheen",
-    "KHR_materials_anisotropy",
-    "KHR_materials_iridescence",
     "KHR_texture_transform",
     "KHR_lights_punctual",
     "KHR_xmp",
@@ -54,6 +43,12 @@ const SUPPORTED_EXTENSIONS: &[&str] = &[
     WEBP,
     BASISU,
 ];
+
+/// Whether extension `name` is honoured: one of `SUPPORTED_EXTENSIONS`, or the extension of
+/// a section of material parameters.
+fn supported(name: &str) -> bool {
+    SUPPORTED_EXTENSIONS.contains(&name) || Section::MATERIAL.iter().any(|s| s.extension() == Some(name))
+}
 
 /// Materials that show their base colour unlit.
 const UNLIT: &str = "KHR_materials_unlit";
@@ -212,7 +207,7 @@ fn read(bytes: &[u8], base: Option<&Path>, limits: &Limits) -> Result<Read, Refu
 /// KHR_texture_basisu image, or else its EXT_texture_webp image, where it has one (as those
 /// extensions ask; the texture's `source` is then a fallback, or absent).
 fn required_checked(mut json: gltf::json::Root) -> Result<gltf::json::Root, String> {
-    if let Some(ext) = json.extensions_required.iter().find(|e| !SUPPORTED_EXTENSIONS.contains(&e.as_str())) {
+    if let Some(ext) = json.extensions_required.iter().find(|e| !supported(e)) {
         return Err(format!("the file requires the glTF extension {ext}, which Lucent does not support"));
     }
     json.extensions_required.clear();
@@ -319,6 +314,8 @@ struct Placed {
 /// of types the spec allows, one count for all vertex attributes) and says what each
 /// will take; `placements` is how often each node's mesh is placed.
 fn check_primitives(doc: &Document, buffers: &[buffer::Data], placements: &[u64]) -> Result<Vec<Placed>, String> {
+    let tangent_materials: Vec<bool> =
+        materials(doc, &mut Warnings::default()).iter().map(Material::needs_tangents).collect();
     let mut copies = vec![0u64; doc.meshes().len()];
     for node in doc.nodes() {
         if let Some(m) = node.mesh() {
@@ -330,7 +327,8 @@ fn check_primitives(doc: &Document, buffers: &[buffer::Data], placements: &[u64]
     for mesh in doc.meshes().filter(|m| copies[m.index()] > 0) {
         for prim in mesh.primitives() {
             let name_bytes = mesh.name().map_or(4, str::len) as u64;
-            if let Some((shape, sparse)) = primitive_shape(&prim, name_bytes, buffers, quantized)? {
+            let tangent_space = prim.material().index().is_some_and(|i| tangent_materials[i]);
+            if let Some((shape, sparse)) = primitive_shape(&prim, name_bytes, buffers, (quantized, tangent_space))? {
                 let name = format!("meshes[{}].primitives[{}]", mesh.index(), prim.index());
                 let copies = copies[mesh.index()];
                 let instanced = copies > 1 && prim.morph_targets().len() == 0;
@@ -346,13 +344,14 @@ fn check_primitives(doc: &Document, buffers: &[buffer::Data], placements: &[u64]
 type Sparse = (usize, u64, gltf::accessor::Dimensions);
 
 /// What converting one copy of a primitive (of a mesh whose name has `name` bytes) takes,
-/// once its accessors are checked; None for a primitive that is skipped (not triangles, or
+/// once its accessors are checked (`quantized`: with KHR_mesh_quantization; `tangent_space`:
+/// its material needs tangents); None for a primitive that is skipped (not triangles, or
 /// without POSITION).
 fn primitive_shape(
     prim: &gltf::Primitive,
     name: u64,
     buffers: &[buffer::Data],
-    quantized: bool,
+    (quantized, tangent_space): (bool, bool),
 ) -> Result<Option<(PrimitiveShape, Option<Sparse>)>, String> {
     let mode = prim.mode();
     if !matches!(mode, Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan) {
@@ -368,7 +367,6 @@ fn primitive_shape(
         check_attribute_type(&Semantic::Weights(u32::MAX), i, quantized)?;
     }
     let Some(positions) = prim.get(&Semantic::Positions) else { return Ok(None) };
-    let tangent_space = needs_tangents(&prim.material());
     let normals = prim.get(&Semantic::Normals);
     let uvs = prim.get(&Semantic::TexCoords(0));
     let uvs1 = prim.get(&Semantic::TexCoords(1));
@@ -582,15 +580,14 @@ impl Warnings {
 fn convert(doc: &Document, buffers: &[buffer::Data], images: Vec<Image>, name: String) -> Result<SceneDesc, String> {
     let mut warnings = Warnings::default();
     for ext in doc.extensions_used() {
-        if !SUPPORTED_EXTENSIONS.contains(&ext) {
+        if !supported(ext) {
             warnings.add(format!("extension {ext} is not supported yet: ignored"));
         }
     }
     let mut desc = SceneDesc { name, variants: variants::names(doc), ..SceneDesc::default() };
     desc.images = images;
     desc.textures = doc.textures().map(convert_texture).collect();
-    let texture_count = desc.textures.len();
-    desc.materials = doc.materials().map(|m| convert_material(&m, texture_count, &mut warnings)).collect();
+    desc.materials = materials(doc, &mut warnings);
     let default_material = desc.materials.len() as u32;
 
     let scene = match doc.default_scene().or_else(|| doc.scenes().next()) {
@@ -671,7 +668,7 @@ fn convert(doc: &Document, buffers: &[buffer::Data], images: Vec<Image>, name: S
             }
             continue;
         }
-        let tangent_space = needs_tangents(&prim.material());
+        let tangent_space = prim.material().index().is_some_and(|i| desc.materials[i].needs_tangents());
         let weights = node.weights().or(mesh.weights()).unwrap_or_default();
         if prim.morph_targets().len() > 0 {
             warnings.add("morph targets are applied at the node's or mesh's weights (animation is not supported)");
@@ -841,262 +838,70 @@ fn texture_json(info: Option<&Value>, texture_count: usize, warnings: &mut Warni
     Some(TexRef { texture: index as u32, set: set.min(1) as u8, transform })
 }
 
-/// A texture slot the gltf crate parsed.
-fn texture_ref(info: Option<gltf::texture::Info>, warnings: &mut Warnings) -> Option<TexRef> {
-    let info = info?;
-    let mut set = info.tex_coord();
-    let mut transform = Affine2::IDENTITY;
-    if let Some(t) = info.texture_transform() {
-        transform = uv_transform(t.offset(), t.rotation(), t.scale());
-        set = t.tex_coord().unwrap_or(set);
-    }
-    if set > 1 {
-        warnings.add("textures on TEXCOORD sets above 1 are not supported: read from set 1");
-    }
-    Some(TexRef { texture: info.texture().index() as u32, set: set.min(1) as u8, transform })
+/// The file's materials, each read through `MATERIAL_PARAMS` from its JSON (the gltf crate's
+/// parsed material serialised again: numbers as the crate read them, a property the file
+/// leaves out either absent or at glTF's default, an infinite number null).
+fn materials(doc: &Document, warnings: &mut Warnings) -> Vec<Material> {
+    let texture_count = doc.textures().len();
+    let json = &doc.as_json().materials;
+    doc.materials()
+        .zip(json)
+        .map(|(m, json)| {
+            let json = serde_json::to_value(json).unwrap_or(Value::Null);
+            convert_material(&m, &json, texture_count, warnings)
+        })
+        .collect()
 }
 
-fn factor(v: &Value, key: &str, default: f32) -> f32 {
-    v.get(key).and_then(Value::as_f64).map_or(default, |f| f as f32)
-}
-
-/// KHR_materials_volume and KHR_materials_volume_scatter's factors, clamped into their
-/// ranges with a warning naming the material: colours to [0, 1], |g| to MAX_G, and a
-/// distance that is not positive and finite means no attenuation (infinite). The medium
-/// they make is `VolumeFactors::medium`'s: extinction sigma_t = -ln(attenuationColor) /
-/// attenuationDistance, single-scatter albedo from multiscatterColor, Henyey-Greenstein g =
-/// scatterAnisotropy.
-fn volume_factors(
-    name: &str,
-    v: &gltf::material::Volume,
-    scatter: Option<&Value>,
-    warnings: &mut Warnings,
-) -> VolumeFactors {
-    let colour = |key: &str, c: Vec3, warnings: &mut Warnings| {
-        let clamped = c.clamp(Vec3::ZERO, Vec3::ONE);
-        if clamped != c || !c.is_finite() {
-            warnings.add(format!("material \"{name}\": {key} {c} is outside [0, 1]: clamped"));
-        }
-        if c.is_finite() { clamped } else { Vec3::ZERO }
-    };
-    let thickness = v.thickness_factor();
-    // A thin wall's attenuation and scattering are kept (they are the file's) but not used.
-    let mut unused = Warnings::default();
-    let warnings = if thickness > 0.0 { warnings } else { &mut unused };
-    let mut factors = VolumeFactors {
-        thickness: if thickness.is_nan() { 0.0 } else { thickness },
-        attenuation_color: colour("attenuationColor", Vec3::from(v.attenuation_color()), warnings),
-        ..VolumeFactors::default()
-    };
-    let distance = v.attenuation_distance();
-    if distance.is_finite() && distance > 0.0 {
-        factors.attenuation_distance = distance;
-    } else if !distance.is_infinite() {
-        warnings.add(format!("material \"{name}\": attenuationDistance {distance} is not positive: no attenuation"));
-    }
-    let Some(scatter) = scatter else { return factors };
-    let array = |key: &str| {
-        scatter
-            .get(key)
-            .and_then(Value::as_array)
-            .map(|a| Vec3::from_array([0, 1, 2].map(|i| a.get(i).and_then(Value::as_f64).unwrap_or(0.0) as f32)))
-    };
-    factors.multiscatter_color =
-        colour("multiscatterColor", array("multiscatterColor").unwrap_or(Vec3::ZERO), warnings);
-    let g = scatter.get("scatterAnisotropy").and_then(Value::as_f64).unwrap_or(0.0) as f32;
-    let g = if g.is_finite() { g } else { 0.0 };
-    if g.abs() > MAX_G {
-        warnings.add(format!(
-            "material \"{name}\": scatterAnisotropy {g} is outside (-1, 1): clamped to {}",
-            g.clamp(-MAX_G, MAX_G)
-        ));
-    }
-    factors.scatter_anisotropy = g.clamp(-MAX_G, MAX_G);
-    factors
-}
-
-/// Whether primitives of material `m` need tangents: for its normal map, its anisotropy
-/// direction or its clearcoat's normal map.
-fn needs_tangents(m: &gltf::Material) -> bool {
-    m.normal_texture().is_some()
-        || m.extension_value("KHR_materials_anisotropy").is_some_and(|a| factor(a, "anisotropyStrength", 0.0) > 0.0)
-        || m.extension_value("KHR_materials_clearcoat")
-            .is_some_and(|c| factor(c, "clearcoatFactor", 0.0) > 0.0 && c.get("clearcoatNormalTexture").is_some())
-}
-
-fn convert_material(m: &gltf::Material, texture_count: usize, warnings: &mut Warnings) -> Material {
-    let pbr = m.pbr_metallic_roughness();
-    let [r, g, b, a] = pbr.base_color_factor();
+/// Material `m`, whose JSON is `json`: each parameter of `MATERIAL_PARAMS` that applies
+/// (in table order, so alphaCutoff after alphaMode) and its texture read at its path, a
+/// value outside its range or of another kind replaced as `Kind::repair` says, with a
+/// warning naming the material; what the file leaves out keeps glTF's default. Read apart:
+/// KHR_materials_unlit, which is the extension's presence.
+fn convert_material(m: &gltf::Material, json: &Value, texture_count: usize, warnings: &mut Warnings) -> Material {
     if m.occlusion_texture().is_some() {
         warnings.add("occlusion textures are ignored (a path tracer computes occlusion)");
     }
     let mut mat = Material {
         name: m.name().map_or_else(|| format!("material {}", m.index().unwrap_or(0)), str::to_owned),
         file_index: m.index().map(|i| i as u32),
-        base_color: Vec3::new(r, g, b),
-        alpha: a,
-        alpha_mode: match m.alpha_mode() {
-            gltf::material::AlphaMode::Opaque => AlphaMode::Opaque,
-            gltf::material::AlphaMode::Mask => AlphaMode::Mask(m.alpha_cutoff().unwrap_or(0.5)),
-            gltf::material::AlphaMode::Blend => AlphaMode::Blend,
-        },
-        double_sided: m.double_sided(),
-        base_color_tex: texture_ref(pbr.base_color_texture(), warnings),
-        metallic: pbr.metallic_factor(),
-        roughness: pbr.roughness_factor(),
-        metallic_roughness_tex: texture_ref(pbr.metallic_roughness_texture(), warnings),
-        emissive: Vec3::from(m.emissive_factor()),
-        emissive_strength: m.emissive_strength().unwrap_or(1.0),
-        emissive_tex: texture_ref(m.emissive_texture(), warnings),
-        ior: m.ior().unwrap_or(1.5),
         ..Material::default()
     };
-    if let Some(n) = m.normal_texture() {
-        let json = serde_json_value(&n);
-        mat.normal_tex = texture_json(Some(&json), texture_count, warnings);
-        mat.normal_scale = n.scale();
-    }
-    if let Some(s) = m.specular() {
-        mat.specular = s.specular_factor();
-        mat.specular_tex = texture_ref(s.specular_texture(), warnings);
-        mat.specular_color = Vec3::from(s.specular_color_factor());
-        mat.specular_color_tex = texture_ref(s.specular_color_texture(), warnings);
-    }
-    if let Some(t) = m.transmission() {
-        mat.transmission = t.transmission_factor();
-        mat.transmission_tex = texture_ref(t.transmission_texture(), warnings);
-    }
-    if let Some(v) = m.volume() {
-        let scatter = m.extension_value("KHR_materials_volume_scatter");
-        mat.volume_factors = volume_factors(&mat.name, &v, scatter, warnings);
-        mat.volume = mat.volume_factors.medium();
-    }
-    if let Some(d) = m.extension_value("KHR_materials_dispersion") {
-        let dispersion = factor(d, "dispersion", 0.0);
-        mat.dispersion = if dispersion.is_finite() && dispersion >= 0.0 {
-            dispersion
-        } else {
-            warnings.add(format!("material {:?}: dispersion {dispersion} must be >= 0: none used", mat.name));
-            0.0
-        };
-        if mat.dispersion > 0.0 && mat.volume.is_none() {
-            warnings.add(format!(
-                "material {:?}: dispersion needs KHR_materials_volume (a thin wall does not bend light): ignored",
-                mat.name
-            ));
+    for p in MATERIAL_PARAMS {
+        if let Some(slot) = &p.texture {
+            (slot.set)(&mut mat, texture_json(p.texture_info(json), texture_count, warnings));
         }
-    }
-    if let Some(t) = m.extension_value("KHR_materials_diffuse_transmission") {
-        mat.diffuse_transmission = factor(t, "diffuseTransmissionFactor", 0.0).clamp(0.0, 1.0);
-        mat.diffuse_transmission_tex = texture_json(t.get("diffuseTransmissionTexture"), texture_count, warnings);
-        let colour = t
-            .get("diffuseTransmissionColorFactor")
-            .and_then(Value::as_array)
-            .map(|a| Vec3::from_array([0, 1, 2].map(|i| a.get(i).and_then(Value::as_f64).unwrap_or(1.0) as f32)));
-        mat.diffuse_transmission_color = colour.unwrap_or(Vec3::ONE).clamp(Vec3::ZERO, Vec3::ONE);
-        mat.diffuse_transmission_color_tex =
-            texture_json(t.get("diffuseTransmissionColorTexture"), texture_count, warnings);
+        if !(p.applies)(&mat) {
+            continue;
+        }
+        let value = match p.read(json) {
+            Some(Ok(value)) if p.kind.check(value).is_ok() => value,
+            Some(Ok(value)) => {
+                let used = p.kind.repair(value, p.default_value());
+                let why = p.kind.violation(value);
+                warnings.add(format!("material {:?}: {} {value} {why}: {used} used", mat.name, p.name()));
+                used
+            }
+            Some(Err(other)) => {
+                let (used, range) = (p.default_value(), p.kind.range());
+                warnings.add(format!("material {:?}: {} {other} is not {range}: {used} used", mat.name, p.name()));
+                used
+            }
+            None => match p.gltf_default {
+                Some(value) => value,
+                None => continue,
+            },
+        };
+        (p.set)(&mut mat, value);
     }
     mat.unlit = m.extension_value(UNLIT).is_some();
-    if let Some(c) = m.extension_value("KHR_materials_clearcoat") {
-        mat.clearcoat = factor(c, "clearcoatFactor", 0.0);
-        mat.clearcoat_tex = texture_json(c.get("clearcoatTexture"), texture_count, warnings);
-        mat.clearcoat_roughness = factor(c, "clearcoatRoughnessFactor", 0.0);
-        mat.clearcoat_roughness_tex = texture_json(c.get("clearcoatRoughnessTexture"), texture_count, warnings);
-        let normal = c.get("clearcoatNormalTexture");
-        mat.clearcoat_normal_tex = texture_json(normal, texture_count, warnings);
-        mat.clearcoat_normal_scale = normal.map_or(1.0, |n| factor(n, "scale", 1.0));
+    if mat.dispersion > 0.0 && mat.volume.is_none() {
+        warnings.add(format!(
+            "material {:?}: dispersion needs KHR_materials_volume (a thin wall does not bend light): ignored",
+            mat.name
+        ));
     }
-    if let Some(a) = m.extension_value("KHR_materials_anisotropy") {
-        let strength = factor(a, "anisotropyStrength", 0.0);
-        mat.anisotropy_strength = in_range(&mat.name, "anisotropyStrength", strength, (0.0, 1.0), None, warnings);
-        mat.anisotropy_rotation = factor(a, "anisotropyRotation", 0.0);
-        mat.anisotropy_tex = texture_json(a.get("anisotropyTexture"), texture_count, warnings);
-    }
-    if let Some(i) = m.extension_value("KHR_materials_iridescence") {
-        let name = &mat.name;
-        let iridescence = factor(i, "iridescenceFactor", 0.0);
-        mat.iridescence = in_range(name, "iridescenceFactor", iridescence, (0.0, 1.0), None, warnings);
-        mat.iridescence_tex = texture_json(i.get("iridescenceTexture"), texture_count, warnings);
-        // The schema spells it iridescenceIor, the extension's README iridescenceIOR.
-        let ior = factor(i, "iridescenceIor", factor(i, "iridescenceIOR", 1.3));
-        mat.iridescence_ior = in_range(name, "iridescenceIor", ior, (1.0, f32::INFINITY), Some(1.3), warnings);
-        for (key, default, slot) in [
-            ("iridescenceThicknessMinimum", 100.0, &mut mat.iridescence_thickness_min),
-            ("iridescenceThicknessMaximum", 400.0, &mut mat.iridescence_thickness_max),
-        ] {
-            *slot = in_range(name, key, factor(i, key, default), (0.0, f32::INFINITY), Some(default), warnings);
-        }
-        mat.iridescence_thickness_tex = texture_json(i.get("iridescenceThicknessTexture"), texture_count, warnings);
-    }
-    if let Some(sh) = m.extension_value("KHR_materials_sheen") {
-        let color = sh.get("sheenColorFactor").and_then(Value::as_array).map_or(Vec3::ZERO, |a| {
-            Vec3::from_array([0, 1, 2].map(|i| a.get(i).and_then(Value::as_f64).unwrap_or(0.0) as f32))
-        });
-        mat.sheen_color = color;
-        mat.sheen_color_tex = texture_json(sh.get("sheenColorTexture"), texture_count, warnings);
-        mat.sheen_roughness = factor(sh, "sheenRoughnessFactor", 0.0);
-        mat.sheen_roughness_tex = texture_json(sh.get("sheenRoughnessTexture"), texture_count, warnings);
-    }
-    sanitise(&mut mat);
     mat
-}
-
-/// The normal texture's textureInfo as JSON (the gltf crate has no KHR_texture_transform
-/// accessor for it).
-fn serde_json_value(n: &gltf::material::NormalTexture) -> Value {
-    let mut info = serde_json::json!({ "index": n.texture().index(), "texCoord": n.tex_coord() });
-    if let Some(t) = n.extension_value("KHR_texture_transform") {
-        info["extensions"] = serde_json::json!({ "KHR_texture_transform": t.clone() });
-    }
-    info
-}
-
-/// `v` if it lies in [lo, hi]; otherwise, with a warning naming the material and the
-/// property `key`, `fallback`, or `v` clamped into the range if there is none.
-fn in_range(
-    material: &str,
-    key: &str,
-    v: f32,
-    (lo, hi): (f32, f32),
-    fallback: Option<f32>,
-    warnings: &mut Warnings,
-) -> f32 {
-    if (lo..=hi).contains(&v) {
-        return v;
-    }
-    let used = fallback.unwrap_or(v.clamp(lo, hi));
-    let range = if hi.is_finite() { format!("outside [{lo}, {hi}]") } else { format!("below {lo}") };
-    warnings.add(format!("material \"{material}\": {key} {v} is {range}: {used} used"));
-    used
-}
-
-/// Clamps factors into their ranges; NaN (from hostile JSON) becomes the default.
-fn sanitise(m: &mut Material) {
-    let unit = |v: f32, default: f32| if v.is_nan() { default } else { v.clamp(0.0, 1.0) };
-    m.metallic = unit(m.metallic, 1.0);
-    m.roughness = unit(m.roughness, 1.0);
-    m.alpha = unit(m.alpha, 1.0);
-    m.specular = unit(m.specular, 1.0);
-    m.transmission = unit(m.transmission, 0.0);
-    m.clearcoat = unit(m.clearcoat, 0.0);
-    m.clearcoat_roughness = unit(m.clearcoat_roughness, 0.0);
-    m.sheen_roughness = unit(m.sheen_roughness, 0.0);
-    m.anisotropy_strength = unit(m.anisotropy_strength, 0.0);
-    m.iridescence = unit(m.iridescence, 0.0);
-    if !(m.iridescence_ior.is_finite() && m.iridescence_ior >= 1.0) {
-        m.iridescence_ior = 1.3;
-    }
-    let thickness = |t: f32, default: f32| if t.is_finite() && t >= 0.0 { t } else { default };
-    m.iridescence_thickness_min = thickness(m.iridescence_thickness_min, 100.0);
-    m.iridescence_thickness_max = thickness(m.iridescence_thickness_max, 400.0);
-    if !m.anisotropy_rotation.is_finite() {
-        m.anisotropy_rotation = 0.0;
-    }
-    m.sheen_color = m.sheen_color.clamp(Vec3::ZERO, Vec3::ONE);
-    if !(m.ior.is_finite() && m.ior >= 1.0) {
-        m.ior = 1.5;
-    }
 }
 
 /// Checks that an accessor has at least one element (glTF 2.0, 5.1: count >= 1, and so for

@@ -6,7 +6,9 @@
 //!
 //! - a material's properties that differ from the file, each where
 //!   `scene::edit::MATERIAL_PARAMS` says it lives, the extensions it adds listed in
-//!   `extensionsUsed`; an edited glTF default material (for primitives without one) is added;
+//!   `extensionsUsed`, and those that no longer apply removed (alphaCutoff once the
+//!   alphaMode is not MASK); an edited glTF default material (for primitives without one) is
+//!   added;
 //! - a light's KHR_lights_punctual entry (colour, intensity, cone angles); lights sharing an
 //!   entry but edited apart get a copy of it;
 //! - the node placing a moved or turned light: its local transform becomes inverse(parent
@@ -109,13 +111,12 @@ fn write<T>(
     value: ParamValue,
     used: &mut BTreeSet<String>,
 ) -> Result<(), String> {
-    p.kind.check(value).map_err(|e| format!("{}: {e}", p.gltf))?;
-    let (last, parents) = p.path.split_last().ok_or("a light's place is its node")?;
-    if parents.first() == Some(&"extensions")
-        && let Some(extension) = parents.get(1)
-    {
+    p.kind.check(value).map_err(|e| format!("{}: {e}", p.name()))?;
+    if let Some(extension) = p.section.extension() {
         used.insert(extension.to_string());
     }
+    let keys: Vec<&str> = p.keys().collect();
+    let (last, parents) = keys.split_last().ok_or("a parameter without a path")?;
     let mut object = target;
     for key in parents {
         object = self::object(object, key)?;
@@ -145,16 +146,24 @@ fn write<T>(
         }
         (_, ParamValue::Choice(c)) => {
             object.insert(last.to_string(), json!(c));
-            if *last == "alphaMode" && c != "MASK" {
-                object.remove("alphaCutoff");
-            }
         }
     }
     Ok(())
 }
 
+/// Removes parameter `p` from `target`, where the file has it.
+fn remove<T>(target: &mut Map<String, Value>, p: &Param<T>) {
+    let keys: Vec<&str> = p.keys().collect();
+    let Some((last, parents)) = keys.split_last() else { return };
+    if let Some(object) = parents.iter().try_fold(target, |o, key| o.get_mut(*key)?.as_object_mut()) {
+        object.remove(*last);
+    }
+}
+
 /// Writes into `target` every parameter of `table` that differs between `original` and
-/// `edited` and applies to it.
+/// `edited` and applies to it, and removes those that applied to `original` but no longer
+/// do (alphaCutoff once the alphaMode is not MASK). A light's node is not its entry: its
+/// place is moved apart.
 fn write_changes<T>(
     target: &mut Map<String, Value>,
     table: &'static [Param<T>],
@@ -162,9 +171,12 @@ fn write_changes<T>(
     used: &mut BTreeSet<String>,
 ) -> Result<(), String> {
     for (p, value) in changes(table, original, edited) {
-        if (p.applies)(edited) && !p.path.is_empty() {
+        if (p.applies)(edited) && p.part != Part::Node {
             write(target, p, value, used)?;
         }
+    }
+    for p in table.iter().filter(|p| (p.applies)(original) && !(p.applies)(edited) && p.part != Part::Node) {
+        remove(target, p);
     }
     Ok(())
 }

@@ -1,6 +1,7 @@
 //! glTF materials (metallic-roughness with the KHR_materials_* extensions) and their
 //! evaluation into a BSDF at a surface point.
 
+use super::edit::MATERIAL_PARAMS;
 use super::texture::{ColorSpace, Image, Texture};
 use super::{Features, Surface};
 use crate::bsdf::{Bsdf, Lambert, MetalRough, measured::MerlTable, sheen::MIN_SHEEN_ALPHA};
@@ -402,42 +403,33 @@ impl Material {
         }
     }
 
+    /// Whether its BSDF needs the surface's tangents: for its normal map, its anisotropy
+    /// direction or its clearcoat's normal map.
+    pub fn needs_tangents(&self) -> bool {
+        self.normal_tex.is_some()
+            || self.anisotropy_strength > 0.0
+            || (self.clearcoat > 0.0 && self.clearcoat_normal_tex.is_some())
+    }
+
     /// Whether rays may pass through some of its points without interacting (alpha), or
     /// through its back side (single-sided).
     pub fn is_cutout(&self) -> bool {
         self.alpha_mode != AlphaMode::Opaque || !self.double_sided
     }
 
-    fn textures(&self) -> [Option<TexRef>; 17] {
-        [
-            self.clearcoat_normal_tex,
-            self.iridescence_tex,
-            self.iridescence_thickness_tex,
-            self.anisotropy_tex,
-            self.diffuse_transmission_tex,
-            self.diffuse_transmission_color_tex,
-            self.base_color_tex,
-            self.metallic_roughness_tex,
-            self.normal_tex,
-            self.emissive_tex,
-            self.specular_tex,
-            self.specular_color_tex,
-            self.transmission_tex,
-            self.clearcoat_tex,
-            self.clearcoat_roughness_tex,
-            self.sheen_color_tex,
-            self.sheen_roughness_tex,
-        ]
+    /// The textures its slots read: those of `MATERIAL_PARAMS`' entries.
+    fn textures(&self) -> impl Iterator<Item = TexRef> + '_ {
+        MATERIAL_PARAMS.iter().filter_map(|p| (p.texture.as_ref()?.get)(self))
     }
 
     /// Whether any of its slots reads a texture.
     pub fn is_textured(&self) -> bool {
-        self.textures().iter().any(Option::is_some)
+        self.textures().next().is_some()
     }
 
     /// Whether any slot reads TEXCOORD_1.
     pub fn uses_second_uv_set(&self) -> bool {
-        self.textures().iter().flatten().any(|t| t.set == 1)
+        self.textures().any(|t| t.set == 1)
     }
 
     /// Opacity at a surface point: alpha factor x texture alpha x vertex colour alpha.

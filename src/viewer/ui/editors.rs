@@ -87,14 +87,16 @@ fn material(ui: &mut Ui, state: &mut ViewerState, index: usize) {
 /// on hover), and, for a textured one, a line saying it is a factor of which texture.
 fn param_row(ui: &mut Ui, p: &Param<Material>, m: &mut Material, textures: &[Texture]) {
     let hover = format!("{} ({} in view files)", p.help, p.key);
-    if let Some(value) = widget(ui, p.kind, (p.get)(m), p.gltf, &hover)
+    if let Some(value) = widget(ui, p.kind, (p.get)(m), &p.name(), &hover)
         && p.kind.check(value).is_ok()
     {
         (p.set)(m, value);
     }
-    if let Some((t, channels)) = (p.texture)(m) {
+    if let Some(slot) = &p.texture
+        && let Some(t) = (slot.get)(m)
+    {
         let name = textures.get(t.texture as usize).map_or("?", |t| &t.name);
-        ui.weak(format!("x factor of texture {} {name:?} ({channels})", t.texture));
+        ui.weak(format!("x factor of texture {} {name:?} ({})", t.texture, slot.channels));
     }
 }
 

@@ -167,10 +167,9 @@ mod tests {
         let font = egui::FontId::proportional(14.0);
         ctx.fonts_mut(|f| {
             assert!(!f.has_glyph(&font, '\u{1F4CB}'), "the picker's clipboard glyph is missing");
-            let labels =
-                MATERIAL_PARAMS.iter().map(|p| (p.gltf, p.help)).chain(LIGHT_PARAMS.iter().map(|p| (p.gltf, p.help)));
-            for (name, help) in labels {
-                assert!(f.has_glyphs(&font, name) && f.has_glyphs(&font, help), "{name}: {help}");
+            let labels = MATERIAL_PARAMS.iter().map(|p| (p.name(), p.help));
+            for (name, help) in labels.chain(LIGHT_PARAMS.iter().map(|p| (p.name(), p.help))) {
+                assert!(f.has_glyphs(&font, &name) && f.has_glyphs(&font, help), "{name}: {help}");
             }
             for s in Section::MATERIAL.into_iter().chain([Section::Light]) {
                 assert!(f.has_glyphs(&font, s.title()), "{}", s.title());
