@@ -130,7 +130,15 @@ fn no_shadow_ray_leaves_a_delta_vertex() {
         let s = Settings { light_sampling, max_depth: 6, ..Settings::default() };
         let (mut shadow, mut all, mut light) = (0u64, 0u64, 0.0f64);
         for i in 0..16 * 16 * 4u32 {
-            let out = sample_pixel(scene, &s, &view, UVec2::new(i % 16, (i / 16) % 16), (i / 256) as u64, false);
+            let out = sample_pixel(
+                scene,
+                &s,
+                &view,
+                UVec2::new(i % 16, (i / 16) % 16),
+                (i / 256) as u64,
+                false,
+                &mut |_, _| {},
+            );
             shadow += out.shadow_rays as u64;
             all += out.rays as u64;
             light += out.radiance.to_rgb().x as f64;

@@ -87,10 +87,19 @@ fn a_pixels_samples_taken_together_are_the_bits_of_each_taken_alone() {
         let view = View::new(&scene, &camera, 16, 16);
         for (pixel, start) in [(UVec2::new(7, 4), 0), (UVec2::new(3, 12), 65_530)] {
             let mut together = Vec::new();
-            sample_pixels(&scene, &settings, &view, pixel, start..start + 12, false, |i, out| together.push((i, out)));
+            sample_pixels(
+                &scene,
+                &settings,
+                &view,
+                pixel,
+                start..start + 12,
+                false,
+                |i, out| together.push((i, out)),
+                &mut |_, _| {},
+            );
             assert_eq!(together.len(), 12);
             for (i, out) in together {
-                let alone = sample_pixel(&scene, &settings, &view, pixel, i, false);
+                let alone = sample_pixel(&scene, &settings, &view, pixel, i, false, &mut |_, _| {});
                 assert_eq!(
                     out.radiance.to_rgb().to_array().map(f32::to_bits),
                     alone.radiance.to_rgb().to_array().map(f32::to_bits)

@@ -35,7 +35,7 @@ fn exercise(bytes: &[u8]) {
     let settings = Settings { width: 4, height: 4, max_depth: 4, ..Settings::default() };
     let view = View::new(&scene, &scene.default_camera(1.0), settings.width, settings.height);
     for i in 0..16u32 {
-        let out = sample_pixel(&scene, &settings, &view, UVec2::new(i % 4, i / 4), i as u64, false);
+        let out = sample_pixel(&scene, &settings, &view, UVec2::new(i % 4, i / 4), i as u64, false, &mut |_, _| {});
         // Non-finite radiance is allowed only if the film would drop it; it must not panic.
         let _ = out.radiance.is_finite();
     }

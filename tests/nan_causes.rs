@@ -27,7 +27,8 @@ fn render_with(edit: impl Fn(&mut Vec<lucent::scene::material::Material>)) -> u3
     (0..64u32 * 64)
         .map(|i| {
             let pixel = UVec2::new(i % 64 % 8, i % 64 / 8);
-            !sample_pixel(&scene, &settings, &view, pixel, (i / 64) as u64, false).radiance.is_finite() as u32
+            !sample_pixel(&scene, &settings, &view, pixel, (i / 64) as u64, false, &mut |_, _| {}).radiance.is_finite()
+                as u32
         })
         .sum()
 }

@@ -7,6 +7,7 @@ pub mod false_colour;
 pub mod merge;
 pub mod output;
 pub mod piece;
+pub mod splat;
 pub mod tonemap;
 pub mod window;
 

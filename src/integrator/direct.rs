@@ -84,7 +84,7 @@ fn segment(
 /// Transmittance of the shadow ray from `origin` towards `target` along `wi`, starting in
 /// `media`: zero if an opaque or refracting surface blocks it.
 #[inline(always)]
-fn shadow(
+pub(super) fn shadow(
     cx: Context,
     (origin, wi, target): (Vec3, Vec3, LightTarget),
     media: Media,

@@ -106,8 +106,13 @@ fn pixel_offset(settings: &Settings, pixel: UVec2, index: u64, sampler: &mut Sam
     }
 }
 
+/// Where a sample's light-tracing contributions go: each at a film position (pixels), for
+/// the film to add to the pixel there (bidirectional path tracing; other estimators make
+/// none).
+pub type Splat<'a> = &'a mut dyn FnMut(Vec2, Spectrum);
+
 /// Sample `index` of `pixel`; with `aovs`, also its albedo and normal for the denoiser (the
-/// radiance is the same bits either way).
+/// radiance is the same bits either way). Contributions to other pixels go to `splat`.
 pub fn sample_pixel(
     scene: &Scene,
     settings: &Settings,
@@ -115,13 +120,15 @@ pub fn sample_pixel(
     pixel: UVec2,
     index: u64,
     aovs: bool,
+    splat: Splat,
 ) -> PathOutput {
     let pixel = Pixel { at: pixel, sequence: &sequence(settings, pixel), edges: edges(settings, view, pixel) };
-    sample(Context { scene, settings }, view, pixel, index, aovs)
+    sample(Context { scene, settings }, view, pixel, (index, aovs), splat)
 }
 
 /// Samples `indices` of `pixel`, each handed to `add` with its index: the bits of
 /// `sample_pixel` for each, with what the pixel's samples share computed once.
+#[allow(clippy::too_many_arguments)]
 pub fn sample_pixels(
     scene: &Scene,
     settings: &Settings,
@@ -130,10 +137,13 @@ pub fn sample_pixels(
     indices: Range<u64>,
     aovs: bool,
     mut add: impl FnMut(u64, PathOutput),
+    splat: Splat,
 ) {
     let (sequence, edges) = (sequence(settings, pixel), edges(settings, view, pixel));
     let (cx, pixel) = (Context { scene, settings }, Pixel { at: pixel, sequence: &sequence, edges });
-    indices.for_each(|i| add(i, sample(cx, view, pixel, i, aovs)));
+    for i in indices {
+        add(i, sample(cx, view, pixel, (i, aovs), &mut *splat));
+    }
 }
 
 /// The outlines of seen emitters partly covering `pixel`, if `settings` ask for their
@@ -158,7 +168,13 @@ struct Pixel<'a> {
 
 /// `sample_pixel` with what the pixel's samples share.
 #[inline]
-fn sample(cx: Context, view: &View, Pixel { at: pixel, sequence, edges }: Pixel, index: u64, aovs: bool) -> PathOutput {
+fn sample(
+    cx: Context,
+    view: &View,
+    Pixel { at: pixel, sequence, edges }: Pixel,
+    (index, aovs): (u64, bool),
+    splat: Splat,
+) -> PathOutput {
     let Context { scene, settings } = cx;
     let mut sampler = sequence.sampler(index);
     let offset = pixel_offset(settings, pixel, index, &mut sampler);
@@ -174,6 +190,7 @@ fn sample(cx: Context, view: &View, Pixel { at: pixel, sequence, edges }: Pixel,
         (Integrator::Path, false) => super::path::radiance::<false>(cx, ray, media, &mut sampler, &mut wl, aovs),
         (Integrator::Path, true) => super::path::radiance::<true>(cx, ray, media, &mut sampler, &mut wl, aovs),
         (Integrator::Distribution, _) => super::drt::radiance(cx, ray, media, &mut sampler, aovs),
+        (Integrator::Bdpt, _) => super::bdpt::radiance(cx, view, ray, &mut sampler, splat),
     };
     out.radiance = wl.to_rgb(out.radiance);
     if !edges.is_empty() {

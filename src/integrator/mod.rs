@@ -6,6 +6,7 @@
 //! path is in (`media`) and the denoiser's albedo and normal of a sample (`aov`).
 
 mod aov;
+mod bdpt;
 mod direct;
 mod drt;
 mod edges;

@@ -42,6 +42,7 @@ crate::choice_enum! {
         #[default]
         Path = "path": "path tracing, one direction per bounce",
         Distribution = "distribution": "distribution ray tracing, branching at every hit",
+        Bdpt = "bdpt": "bidirectional path tracing: camera and light subpaths joined every way, by MIS",
     }
 }
 
@@ -95,7 +96,7 @@ crate::params! {
         width: u32 = 512, ["width", "width", Image, int(1, MAX_SIDE), always],
         /// Image height in pixels (the viewer follows its window unless the size is fixed).
         height: u32 = 512, ["height", "height", Image, int(1, MAX_SIDE), always],
-        /// The estimator: path tracing, or distribution ray tracing (branching at every hit).
+        /// The estimator: path tracing, distribution ray tracing (branching at every hit), or bidirectional path tracing.
         integrator: Integrator = Integrator::Path, ["integrator", "integrator", Estimator, Domain::Choice(Integrator::CHOICES), always],
         /// Directions per hit for distribution ray tracing.
         branching: u32 = 8, ["branching", "directions per hit", Estimator, int(1, 4096), distribution],

@@ -31,6 +31,7 @@ fn shading_frame(surface: &Surface, front: bool, wo: Vec3) -> Frame {
 }
 
 /// A scattering event on a surface.
+#[derive(Clone, Copy)]
 pub struct Vertex<'a> {
     /// The surface point.
     pub surface: Surface,

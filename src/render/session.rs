@@ -7,11 +7,12 @@
 //! which follow the timing, nor on the thread count.
 
 use crate::film::adaptive::{self, ErrorEstimate, LUMINANCE, LUMINANCE_FLOOR};
-use crate::film::{AovImages, Film, TILE_SIZE, Tile, window::Window};
-use crate::integrator::{Integrator, Settings, View, sample_pixels, settings::InvalidSettings};
+use crate::film::{AovImages, Film, TILE_SIZE, Tile, splat::Splats, window::Window};
+use crate::integrator::{Integrator, PathOutput, Settings, View, sample_pixels, settings::InvalidSettings};
 use crate::memory::{Limits, format_bytes};
 use crate::scene::{Scene, camera::Camera};
-use glam::{UVec2, Vec3};
+use crate::spectrum::Spectrum;
+use glam::{UVec2, Vec2, Vec3};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Condvar, Mutex, MutexGuard};
@@ -392,6 +393,29 @@ fn check_job(job: &Job, limits: &Limits) -> Result<(), SessionError> {
             job.scene.name
         ))));
     }
+    if job.settings.integrator == Integrator::Bdpt {
+        let s = &job.settings;
+        let refuse = |why: &str| {
+            Err(SessionError::Settings(InvalidSettings(format!(
+                "{}: bidirectional path tracing {why}; use --integrator path",
+                job.scene.name
+            ))))
+        };
+        if job.scene.features.media {
+            return refuse("does not simulate scattering media yet");
+        }
+        if s.wants_spectral(job.scene.features.dispersion) {
+            return refuse("is RGB only (dispersion needs the spectral path tracer), or add --spectral off");
+        }
+        if s.noise_threshold.is_some() {
+            return refuse(
+                "adds light to any pixel, so a pixel's noise cannot stop its samples (no --noise-threshold)",
+            );
+        }
+        if job.window.is_some() || s.first_sample != 0 {
+            return refuse("renders whole images only (its light paths land anywhere): no regions or sample pieces");
+        }
+    }
     if let Some(w) = job.window {
         w.check(job.settings.width, job.settings.height)
             .map_err(|e| SessionError::Settings(InvalidSettings(format!("window {w}: {e}"))))?;
@@ -429,6 +453,8 @@ struct Active {
     job: Job,
     generation: u64,
     film: Film,
+    /// Light-tracing contributions to any pixel (bidirectional path tracing only).
+    splats: Option<Splats>,
     view: View,
     spp: u32,
     pass_spp: u32,
@@ -450,6 +476,7 @@ impl Active {
         }
         Self {
             film: if s.noise_threshold.is_some() { film.with_threshold() } else { film },
+            splats: (s.integrator == Integrator::Bdpt).then(|| Splats::new(s.width, s.height)),
             view: View::new(&job.scene, &job.camera, s.width, s.height),
             job,
             generation,
@@ -502,7 +529,7 @@ fn coordinate(shared: &Shared, pool: &rayon::ThreadPool) {
             generation: a.generation,
             width: a.film.width,
             height: a.film.height,
-            mean: if images { a.film.mean_image() } else { Vec::new() },
+            mean: if images { mean_image(&a.film, a.splats.as_ref(), a.spp) } else { Vec::new() },
             variance,
             luminance_variance,
             estimate: ErrorEstimate::of(a.job.settings.sampler, replicates),
@@ -513,7 +540,7 @@ fn coordinate(shared: &Shared, pool: &rayon::ThreadPool) {
             elapsed: a.elapsed,
             samples: a.samples,
             rays: a.traced,
-            rejected: a.film.rejected(),
+            rejected: a.film.rejected() + a.splats.as_ref().map_or(0, Splats::rejected),
             done: a.done(),
             // A finished job adds nothing more: its sums move into the last snapshot.
             film: a.done().then(|| Arc::new(std::mem::replace(&mut a.film, Film::new(0, 0)))),
@@ -523,8 +550,20 @@ fn coordinate(shared: &Shared, pool: &rayon::ThreadPool) {
     }
 }
 
+/// The film's mean image, with the splatted contributions of `spp` samples per pixel.
+fn mean_image(film: &Film, splats: Option<&Splats>, spp: u32) -> Vec<Vec3> {
+    let mut mean = film.mean_image();
+    if let Some(splats) = splats {
+        for (m, s) in mean.iter_mut().zip(splats.image(spp)) {
+            *m += s;
+        }
+    }
+    mean
+}
+
 /// Everything a tile needs to render its share of one pass.
 struct Pass<'a> {
+    splats: Option<&'a Splats>,
     scene: &'a Scene,
     settings: &'a Settings,
     view: &'a View,
@@ -573,7 +612,7 @@ impl Pass<'_> {
                         continue;
                     }
                     let pixel = tile.origin + local;
-                    sample_pixels(self.scene, self.settings, self.view, pixel, start..stop, self.aovs, |index, out| {
+                    let add = |index, out: PathOutput| {
                         tile.add(local, out.radiance);
                         if let Some(aov) = out.aov {
                             tile.add_aov(local, aov.albedo, aov.normal);
@@ -582,7 +621,14 @@ impl Pass<'_> {
                             tile.add_error(local, index, out.radiance);
                         }
                         traced += out.rays as u64;
-                    });
+                    };
+                    let mut splat = |at: Vec2, value: Spectrum| {
+                        if let Some(s) = self.splats {
+                            s.add(at, value);
+                        }
+                    };
+                    let (range, aovs) = (start..stop, self.aovs);
+                    sample_pixels(self.scene, self.settings, self.view, pixel, range, aovs, add, &mut splat);
                     samples += stop - start;
                 }
             }
@@ -620,6 +666,7 @@ fn run_pass(
         return true;
     }
     let pass = Pass {
+        splats: a.splats.as_ref(),
         scene: &a.job.scene,
         settings: &a.job.settings,
         view: &a.view,

@@ -86,11 +86,66 @@ impl RayGenerator {
     pub fn origin(&self) -> Vec3 {
         self.origin
     }
+
+    /// Cosine between unit `d` and the camera's viewing direction.
+    pub fn cos(&self, d: Vec3) -> f32 {
+        d.dot(self.forward)
+    }
+
+    /// The film's area at distance 1 in front of the pinhole.
+    fn film_area(&self) -> f32 {
+        4.0 * self.right.length() * self.up.length()
+    }
+
+    /// The pinhole's importance for a ray leaving it along unit `d`, normalised over the
+    /// whole film (pbrt-v4's `PerspectiveCamera::We`): 1 / (A cos^4 theta), A the film's area
+    /// at distance 1; with the film position (pixels) the ray passes through. None outside
+    /// the frame or behind the camera.
+    pub fn importance(&self, d: Vec3) -> Option<(f32, Vec2)> {
+        let cos = d.dot(self.forward);
+        if cos <= 0.0 {
+            return None;
+        }
+        let film = self.film_position(self.origin + d)?.as_vec2();
+        let size = Vec2::ONE / self.inv_size;
+        if !(film.x >= 0.0 && film.y >= 0.0 && film.x < size.x && film.y < size.y) {
+            return None;
+        }
+        Some((1.0 / (self.film_area() * cos.powi(4)), film))
+    }
+
+    /// Density per solid angle of the camera's rays along unit `d` (film positions uniform
+    /// over the film): 1 / (A cos^3 theta) inside the frame, 0 outside.
+    pub fn pdf_dir(&self, d: Vec3) -> f32 {
+        match self.importance(d) {
+            Some(_) => 1.0 / (self.film_area() * d.dot(self.forward).powi(3)),
+            None => 0.0,
+        }
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn importance_finds_the_film_position_of_a_ray_and_weighs_it_against_its_density() {
+        // Each camera ray maps back to its film position; We cos / pdf_dir is 1 for every
+        // ray, so the importance integrates to 1 over the frame (film positions uniform).
+        let cam = Camera::look_at(Vec3::new(0.3, -1.0, 2.0), Vec3::new(0.0, 0.4, -1.0), 0.9);
+        let rays = cam.rays(96, 64);
+        let forward = cam.rotation * -Vec3::Z;
+        for i in 0..200 {
+            let film = Vec2::new((i % 20) as f32 * 4.8 + 0.3, (i / 20) as f32 * 6.4 + 0.2);
+            let d = rays.ray(film).d;
+            let (we, back) = rays.importance(d).expect("inside the frame");
+            assert!((back - film).length() < 1e-3, "{film} -> {back}");
+            let ratio = we * d.dot(forward) / rays.pdf_dir(d);
+            assert!((ratio - 1.0).abs() < 1e-5, "{ratio}");
+        }
+        assert_eq!(rays.importance(-forward), None, "behind");
+        assert_eq!(rays.pdf_dir(rays.ray(Vec2::new(-1.0, 10.0)).d), 0.0, "left of the frame");
+    }
 
     #[test]
     fn look_at_points_the_centre_ray_at_the_target() {

@@ -75,6 +75,11 @@ impl LightSampler {
         self.triangle(tri).pmf
     }
 
+    /// The area of emissive triangle `tri` (0 for non-emitters).
+    pub fn triangle_area(&self, tri: u32) -> f32 {
+        self.triangle(tri).area
+    }
+
     /// Emissive triangle `tri`'s choice probability and area (zeros for non-emitters).
     #[inline]
     pub(super) fn triangle(&self, tri: u32) -> TrianglePick {

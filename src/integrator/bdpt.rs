@@ -1,0 +1,654 @@
+//! Bidirectional path tracing (Veach 1997, chapter 10; the formulation of pbrt-v4's
+//! BDPTIntegrator): per sample a camera subpath and a light subpath, and every way of
+//! joining them, s vertices of the light subpath with t of the camera subpath, weighted by
+//! multiple importance sampling with the power heuristic. s = 0 is the camera subpath
+//! finding an emitter by itself, s = 1 a light sampled for the camera subpath's last vertex
+//! (next-event estimation), t = 1 the light subpath's vertex seen by the camera (light
+//! tracing), whose contribution lands on the pixel the connection passes through and is
+//! splatted there. Light subpaths carry importance: their BSDFs are evaluated in
+//! `TransportMode::Importance`, with Veach's correction for shading normals.
+//!
+//! Surfaces only, in RGB: scenes with a scattering medium or a dispersive material are
+//! refused before rendering. Absorbing volumes attenuate every segment and connection;
+//! surfaces crossed straight through (null lobes) are passed without a vertex, as the path
+//! tracer passes them. Subpaths have at most `max_depth` bounces; there is no roulette, so
+//! that every strategy's density is the product of its sampling densities.
+//!
+//! The densities of a rough transmission are those of the side the path arrives on; the
+//! reverse density through a rough refracting interface is the BSDF's density from the
+//! other side, built for it.
+
+use super::Context;
+use super::direct::shadow;
+use super::kernel::{PathOutput, View};
+use super::media::{Media, transmittance};
+use super::vertex::Vertex;
+use crate::bsdf::{LobeFlags, TransportMode};
+use crate::math::sampler::Sampler;
+use crate::scene::{
+    Surface,
+    geometry::Ray,
+    light::{Light, LightTarget},
+};
+use crate::spectrum::{Spectrum, Wavelengths};
+use glam::{Vec2, Vec3};
+
+/// Most vertices a subpath keeps (its camera or light vertex and its bounces).
+const MAX_VERTICES: usize = 34;
+
+/// What a subpath vertex is.
+#[derive(Clone, Copy)]
+enum Kind<'a> {
+    /// The pinhole camera.
+    Camera,
+    /// A point on a light (or, for light from infinitely far away, its direction), and the
+    /// light with its probability of being chosen.
+    Light(&'a Light, f32),
+    /// A surface scattering event.
+    Surface,
+}
+
+/// A subpath vertex (pbrt-v4's BDPT `Vertex`).
+#[derive(Clone, Copy)]
+struct PathVertex<'a> {
+    kind: Kind<'a>,
+    /// Position (for a light at infinity, the direction light arrives from, negated).
+    p: Vec3,
+    /// Geometric normal on the side the subpath arrived from (zero off surfaces).
+    n: Vec3,
+    /// The surface vertex: BSDF, frame, ray origins.
+    surface: Option<Vertex<'a>>,
+    /// Throughput from the subpath's start up to this vertex, over its density.
+    beta: Spectrum,
+    /// Density of this vertex per unit area (per solid angle for a light at infinity) as the
+    /// subpath sampled it, and as the other direction would have.
+    pdf_fwd: f32,
+    pdf_rev: f32,
+    /// A delta lobe scattered the subpath here: no connection can end at it.
+    delta: bool,
+    /// A surface that emits towards the side the subpath arrived from.
+    emissive: bool,
+    /// What the subpath carries: radiance (camera) or importance (light).
+    mode: TransportMode,
+}
+
+impl<'a> PathVertex<'a> {
+    fn is_light(&self) -> bool {
+        match self.kind {
+            Kind::Light(..) => true,
+            Kind::Surface => self.emissive,
+            Kind::Camera => false,
+        }
+    }
+
+    /// A light at infinity (directional or environment): its "position" is a direction.
+    fn is_infinite(&self) -> bool {
+        matches!(self.kind, Kind::Light(Light::Directional(_) | Light::Environment, _))
+    }
+
+    /// A light whose position or direction is a delta (point, spot, directional).
+    fn is_delta_light(&self) -> bool {
+        matches!(self.kind, Kind::Light(Light::Point(_) | Light::Spot(_) | Light::Directional(_), _))
+    }
+
+    /// Whether a connection may end here: not a delta lobe, not a delta direction.
+    fn connectible(&self) -> bool {
+        match self.kind {
+            Kind::Camera => true,
+            Kind::Light(l, _) => !matches!(l, Light::Directional(_)),
+            Kind::Surface => self.surface.is_some_and(|s| s.bsdf.flags().has_non_specular()),
+        }
+    }
+
+    /// Converts a solid-angle density at this vertex towards `next` into a density per unit
+    /// area at `next` (or leaves it per solid angle for a light at infinity).
+    fn convert(&self, pdf: f32, next: &PathVertex) -> f32 {
+        if next.is_infinite() {
+            return pdf;
+        }
+        let w = next.p - self.p;
+        let dist2 = w.length_squared();
+        if dist2 == 0.0 {
+            return 0.0;
+        }
+        let cos = if next.n == Vec3::ZERO { 1.0 } else { next.n.dot(w / dist2.sqrt()).abs() };
+        pdf * cos / dist2
+    }
+
+    /// Unit direction towards `other`; for light at infinity, the direction it comes from.
+    fn towards(&self, other: &PathVertex) -> Vec3 {
+        if other.is_infinite() { other.p } else { (other.p - self.p).normalize_or_zero() }
+    }
+
+    /// The camera or light vertex a subpath starts at.
+    fn end(kind: Kind<'a>, p: Vec3, n: Vec3, beta: Spectrum, mode: TransportMode) -> Self {
+        PathVertex { kind, p, n, surface: None, beta, pdf_fwd: 0.0, pdf_rev: 0.0, delta: false, emissive: false, mode }
+    }
+}
+
+/// What one BDPT sample adds to its own pixel, and the light-tracing contributions it splats
+/// elsewhere (film positions in pixels).
+pub fn radiance(
+    cx: Context,
+    view: &View,
+    ray: Ray,
+    sampler: &mut Sampler,
+    splat: &mut dyn FnMut(Vec2, Spectrum),
+) -> PathOutput {
+    let mut out = PathOutput::default();
+    let max = (cx.settings.max_depth as usize + 2).min(MAX_VERTICES);
+    let mut camera: Vec<PathVertex> = Vec::with_capacity(max);
+    let mut light: Vec<PathVertex> = Vec::with_capacity(max);
+    camera_subpath(cx, view, ray, sampler, max, &mut camera, &mut out);
+    light_subpath(cx, sampler, max - 1, &mut light, &mut out);
+    let mut total = Spectrum::ZERO;
+    for t in 1..=camera.len() {
+        for s in 0..=light.len() {
+            let depth = s as i64 + t as i64 - 2;
+            if (s == 1 && t == 1) || depth < 0 || depth > cx.settings.max_depth as i64 {
+                continue;
+            }
+            if let Some((l, film)) = connect(cx, view, (&light, s), (&camera, t), sampler, &mut out) {
+                match film {
+                    Some(film) => splat(film, l),
+                    None => total += l,
+                }
+            }
+        }
+    }
+    out.radiance = total;
+    out
+}
+
+/// The camera subpath: the camera vertex, then a random walk from the camera ray.
+fn camera_subpath<'a>(
+    cx: Context<'a>,
+    view: &View,
+    ray: Ray,
+    sampler: &mut Sampler,
+    max: usize,
+    path: &mut Vec<PathVertex<'a>>,
+    out: &mut PathOutput,
+) {
+    let pdf_dir = view.rays.pdf_dir(ray.d);
+    path.push(PathVertex::end(Kind::Camera, ray.o, Vec3::ZERO, Spectrum::ONE, TransportMode::Radiance));
+    walk(cx, (ray, view.media), Spectrum::ONE, pdf_dir, TransportMode::Radiance, sampler, max, path, out);
+}
+
+/// The light subpath: a light chosen by power, a ray leaving it, then a random walk.
+fn light_subpath<'a>(
+    cx: Context<'a>,
+    sampler: &mut Sampler,
+    max: usize,
+    path: &mut Vec<PathVertex<'a>>,
+    out: &mut PathOutput,
+) {
+    let (u_select, u_pos, u_dir) = (sampler.next_2d(), sampler.next_2d(), sampler.next_2d());
+    if max == 0 {
+        return;
+    }
+    let Some((light, pmf)) = cx.scene.light_sampler.sample(u_select) else { return };
+    let Some(le) = light.sample_le(cx.scene, u_pos, u_dir) else { return };
+    let cos = le.n.map_or(1.0, |n| n.dot(le.ray.d).abs());
+    let p = if matches!(light, Light::Directional(_) | Light::Environment) { -le.ray.d } else { le.ray.o };
+    let beta = le.radiance / (pmf * le.pdf_pos);
+    let mut vertex =
+        PathVertex::end(Kind::Light(light, pmf), p, le.n.unwrap_or(Vec3::ZERO), beta, TransportMode::Importance);
+    vertex.pdf_fwd = light_origin_density(cx, &vertex);
+    let infinite = vertex.is_infinite();
+    path.push(vertex);
+    let beta = le.radiance * (cos / (pmf * le.pdf_pos * le.pdf_dir));
+    let start = path.len();
+    // Light paths start outside every volume.
+    walk(cx, (le.ray, Media::default()), beta, le.pdf_dir, TransportMode::Importance, sampler, max, path, out);
+    // From light at infinity the first surface's density is the disc's, projected.
+    if infinite && path.len() > start {
+        let first = &mut path[start];
+        first.pdf_fwd = le.pdf_pos * if first.n == Vec3::ZERO { 1.0 } else { first.n.dot(le.ray.d).abs() };
+    }
+}
+
+/// A random walk from `ray` in `media` with throughput `beta`, its direction drawn with
+/// solid-angle density `pdf`, adding vertices to `path` up to `max` (pbrt-v4's RandomWalk).
+#[allow(clippy::too_many_arguments)]
+fn walk<'a>(
+    cx: Context<'a>,
+    (mut ray, mut media): (Ray, Media),
+    mut beta: Spectrum,
+    mut pdf: f32,
+    mode: TransportMode,
+    sampler: &mut Sampler,
+    max: usize,
+    path: &mut Vec<PathVertex<'a>>,
+    out: &mut PathOutput,
+) {
+    let Context { scene, settings } = cx;
+    let mut travelled = 0.0f32;
+    let mut crossings = 0;
+    let wl = &mut Wavelengths::Rgb;
+    while path.len() < max {
+        out.rays += 1;
+        let first = path.len() == 1;
+        let Some(hit) = scene.intersect(&ray, settings.watertight, first && mode == TransportMode::Radiance) else {
+            // The camera subpath may end on the environment: a vertex of light at infinity.
+            if mode == TransportMode::Radiance
+                && scene.environment.is_some()
+                && let Some(env) = environment_light(cx)
+            {
+                let pmf = scene.light_sampler.environment_pmf();
+                let d = ray.d.normalize();
+                let mut v = PathVertex::end(
+                    Kind::Light(env, pmf),
+                    d,
+                    Vec3::ZERO,
+                    beta * escaped_transmittance(cx, &media),
+                    mode,
+                );
+                // Per solid angle: a light at infinity has no area.
+                v.pdf_fwd = pdf;
+                path.push(v);
+            }
+            return;
+        };
+        if scene.features.volumes {
+            beta *= transmittance(media.sigma_t(&scene.materials), hit.t * ray.d.length());
+        }
+        let surface: Surface = scene.surface(&hit);
+        let vertex = Vertex::new(cx, surface, ray.d, media, wl);
+        let n = if vertex.front { surface.ng } else { -surface.ng };
+        let emissive = vertex.front && scene.materials[surface.material as usize].is_emissive();
+        let mut v = PathVertex {
+            kind: Kind::Surface,
+            p: surface.p,
+            n,
+            surface: Some(vertex),
+            beta,
+            pdf_fwd: 0.0,
+            pdf_rev: 0.0,
+            delta: false,
+            emissive,
+            mode,
+        };
+        // The distance runs from the last vertex, across the surfaces passed straight through.
+        v.pdf_fwd = pdf * n.dot(ray.d).abs() / (travelled + hit.t * ray.d.length()).powi(2);
+        if path.len() + 1 == max {
+            path.push(v);
+            return;
+        }
+        let (u_lobe, u) = (sampler.next_1d(), sampler.next_2d());
+        let Some(bs) = vertex.bsdf.sample(vertex.wo, u_lobe, u, mode) else {
+            path.push(v);
+            return;
+        };
+        let Some((d, origin, crosses)) = vertex.leave(bs.wi) else {
+            path.push(v);
+            return;
+        };
+        if bs.flags.contains(LobeFlags::NULL) {
+            crossings += 1;
+            if crossings > 64 {
+                return;
+            }
+            beta *= bs.weight;
+            travelled += hit.t * ray.d.length();
+            media = vertex.media_after(scene, crosses);
+            ray = Ray { o: origin, d, tmax: f32::INFINITY };
+            continue;
+        }
+        travelled = 0.0;
+        let wo = vertex.frame.to_world(vertex.wo);
+        beta *= bs.weight;
+        if mode == TransportMode::Importance {
+            beta *= shading_correction(&vertex, wo, d);
+        }
+        if bs.is_specular() {
+            v.delta = true;
+            pdf = 0.0;
+        } else {
+            pdf = bs.pdf;
+        }
+        let rev = if v.delta { 0.0 } else { surface_pdf(cx, &vertex, d, wo) };
+        path.push(v);
+        let k = path.len() - 2;
+        let (before, last) = path.split_at_mut(k + 1);
+        before[k].pdf_rev = last[0].convert(rev, &before[k]);
+        media = vertex.media_after(scene, crosses);
+        ray = Ray { o: origin, d, tmax: f32::INFINITY };
+        if beta.is_black() {
+            return;
+        }
+    }
+}
+
+/// The environment light (its map is the scene's).
+static ENVIRONMENT: Light = Light::Environment;
+
+/// The environment, if the light sampler may choose it.
+fn environment_light(cx: Context) -> Option<&'static Light> {
+    (cx.scene.light_sampler.environment_pmf() > 0.0).then_some(&ENVIRONMENT)
+}
+
+/// What the volume a ray leaves the scene in lets through (nothing for an absorbing one).
+fn escaped_transmittance(cx: Context, media: &Media) -> Spectrum {
+    if cx.scene.features.volumes {
+        transmittance(media.sigma_t(&cx.scene.materials), f32::INFINITY)
+    } else {
+        Spectrum::ONE
+    }
+}
+
+/// Veach's correction of importance transported with shading normals (thesis eq. 5.17):
+/// |wo.ns| |wi.ng| / (|wo.ng| |wi.ns|), for world directions `wo` (back along the path)
+/// and `wi` (onwards).
+fn shading_correction(v: &Vertex, wo: Vec3, wi: Vec3) -> f32 {
+    let (ns, ng) = (v.frame.n, v.surface.ng);
+    let den = wo.dot(ng).abs() * wi.dot(ns).abs();
+    if den == 0.0 { 0.0 } else { wo.dot(ns).abs() * wi.dot(ng).abs() / den }
+}
+
+/// Solid-angle density with which the BSDF at `v` samples world direction `wi` for light
+/// arriving from world direction `wo` (both unit, pointing away): from the side `wo` lies
+/// on, the vertex rebuilt from that side where it is not the side the path arrived on.
+fn surface_pdf(cx: Context, v: &Vertex, wo: Vec3, wi: Vec3) -> f32 {
+    let (lo, li) = (v.frame.to_local(wo), v.frame.to_local(wi));
+    if lo.z > 0.0 {
+        return v.bsdf.pdf(lo, li);
+    }
+    if !v.bsdf.transmits() {
+        return 0.0;
+    }
+    let other = Vertex::new(cx, v.surface, -wo, v.media_after(cx.scene, true), &mut Wavelengths::Rgb);
+    other.bsdf.pdf(other.frame.to_local(wo), other.frame.to_local(wi))
+}
+
+/// f |cos| at `v` for light between world directions `wo` (back along the subpath) and `wi`
+/// (towards the connection), in `mode`, with the shading-normal correction for importance.
+fn surface_f(v: &Vertex, wo: Vec3, wi: Vec3, mode: TransportMode) -> Spectrum {
+    let f = v.bsdf.eval(v.frame.to_local(wo), v.frame.to_local(wi), mode);
+    if mode == TransportMode::Importance { f * shading_correction(v, wo, wi) } else { f }
+}
+
+/// The density (per unit area at `next`, or per solid angle for light at infinity) with
+/// which vertex `v`, reached from `prev`, would sample `next`.
+fn density(cx: Context, view: &View, v: &PathVertex, prev: Option<&PathVertex>, next: &PathVertex) -> f32 {
+    match v.kind {
+        Kind::Camera => v.convert(view.rays.pdf_dir(v.towards(next)), next),
+        Kind::Light(..) => light_density(cx, v, next),
+        Kind::Surface => {
+            let (Some(s), Some(prev)) = (v.surface.as_ref(), prev) else { return 0.0 };
+            v.convert(surface_pdf(cx, s, v.towards(prev), v.towards(next)), next)
+        }
+    }
+}
+
+/// The density with which light vertex (or emitting surface) `v` would emit towards `next`
+/// (pbrt-v4's `PdfLight`), per unit area at `next`.
+fn light_density(cx: Context, v: &PathVertex, next: &PathVertex) -> f32 {
+    match v.kind {
+        Kind::Light(light, _) if v.is_infinite() => {
+            // From infinitely far: the disc's density, projected onto the surface.
+            let (pdf_pos, _) = light.pdf_le(cx.scene, v.n, -v.p);
+            pdf_pos * if next.n == Vec3::ZERO { 1.0 } else { next.n.dot(-v.p).abs() }
+        }
+        Kind::Light(light, _) => v.convert(light.pdf_le(cx.scene, v.n, v.towards(next)).1, next),
+        // An emitting surface emits cosine-distributed (`TriangleLight::sample_le`).
+        Kind::Surface => {
+            let cos = v.n.dot(v.towards(next));
+            if cos > 0.0 { v.convert(crate::math::warp::cos_hemisphere_pdf(cos), next) } else { 0.0 }
+        }
+        Kind::Camera => 0.0,
+    }
+}
+
+/// The density per unit area (per solid angle at infinity) with which a light subpath
+/// starts at `v`, a point of a light (pbrt-v4's `PdfLightOrigin`).
+fn light_origin_density(cx: Context, v: &PathVertex) -> f32 {
+    match v.kind {
+        Kind::Light(light, pmf) => match light {
+            Light::Environment => {
+                let env = cx.scene.environment.as_ref().map_or(0.0, |e| e.pdf(v.p));
+                pmf * env
+            }
+            _ => pmf * light.pdf_le(cx.scene, v.n, v.n).0,
+        },
+        Kind::Surface => {
+            let tri = v.surface.map_or(0, |s| s.surface.tri);
+            let pick = cx.scene.light_sampler.triangle_pmf(tri);
+            let area = cx.scene.light_sampler.triangle_area(tri);
+            if area > 0.0 { pick / area } else { 0.0 }
+        }
+        Kind::Camera => 0.0,
+    }
+}
+
+/// Radiance the emitting vertex `v` sends towards `w` (unit): an emitting surface's front,
+/// or the environment.
+fn emitted(cx: Context, v: &PathVertex, w: Vec3) -> Spectrum {
+    match v.kind {
+        Kind::Light(Light::Environment, _) => cx.scene.environment.as_ref().map_or(Spectrum::ZERO, |e| e.radiance(v.p)),
+        Kind::Surface => match v.surface {
+            Some(s) if s.front && v.n.dot(w) > 0.0 => cx.scene.emission(&s.surface),
+            _ => Spectrum::ZERO,
+        },
+        _ => Spectrum::ZERO,
+    }
+}
+
+/// The strategy (s, t): its contribution and, for light tracing (t = 1), the film position
+/// it lands on; None where it contributes nothing.
+fn connect(
+    cx: Context,
+    view: &View,
+    (light, s): (&[PathVertex], usize),
+    (camera, t): (&[PathVertex], usize),
+    sampler: &mut Sampler,
+    out: &mut PathOutput,
+) -> Option<(Spectrum, Option<Vec2>)> {
+    let pt = camera[t - 1];
+    if t > 1 && s != 0 && pt.is_infinite() {
+        return None;
+    }
+    let mut sampled: Option<PathVertex> = None;
+    let mut film = None;
+    let l = if s == 0 {
+        // The camera subpath found a light by itself.
+        if !pt.is_light() {
+            return None;
+        }
+        pt.beta * emitted(cx, &pt, pt.towards(&camera[t - 2]))
+    } else if t == 1 {
+        // Light tracing: the camera sees the light subpath's vertex s - 1.
+        let qs = light[s - 1];
+        if !qs.connectible() || qs.is_infinite() {
+            return None;
+        }
+        let origin = view.rays.origin();
+        let to_camera = origin - qs.p;
+        let dist2 = to_camera.length_squared();
+        let wi = to_camera / dist2.sqrt();
+        let (we, position) = view.rays.importance(-wi)?;
+        let pdf = dist2 / view.rays.cos(-wi);
+        let camera_vertex =
+            PathVertex::end(Kind::Camera, origin, Vec3::ZERO, Spectrum::splat(we / pdf), TransportMode::Radiance);
+        let f = vertex_f(&qs, light.get(s.wrapping_sub(2)), wi)?;
+        let l = qs.beta * f * camera_vertex.beta;
+        if l.is_black() {
+            return None;
+        }
+        let tr = visibility(cx, &qs, origin, LightTarget::Point(origin), sampler, out)?;
+        sampled = Some(camera_vertex);
+        film = Some(position);
+        l * tr
+    } else if s == 1 {
+        // Next-event estimation from the camera subpath's vertex t - 1.
+        if !pt.connectible() || !matches!(pt.kind, Kind::Surface) {
+            return None;
+        }
+        let (u_select, u) = (sampler.next_2d(), sampler.next_2d());
+        let ls = cx.scene.sample_li(pt.p, u_select, u)?;
+        // The light the sample chose (the same uniforms choose it again).
+        let (light, pmf) = cx.scene.light_sampler.sample(u_select)?;
+        let (p, n) = match ls.target {
+            LightTarget::Surface { p, n, .. } => (p, n),
+            LightTarget::Point(p) => (p, Vec3::ZERO),
+            LightTarget::Infinite => (ls.wi, Vec3::ZERO),
+        };
+        let mut v = PathVertex::end(Kind::Light(light, pmf), p, n, ls.radiance / ls.pdf, TransportMode::Importance);
+        v.pdf_fwd = light_origin_density(cx, &v);
+        let f = vertex_f(&pt, Some(&camera[t - 2]), ls.wi)?;
+        let l = pt.beta * f * v.beta;
+        if l.is_black() {
+            return None;
+        }
+        let tr = visibility(cx, &pt, pt.p + ls.wi, ls.target, sampler, out)?;
+        sampled = Some(v);
+        l * tr
+    } else {
+        // Both subpaths joined by a segment.
+        let (qs, pt) = (light[s - 1], camera[t - 1]);
+        if !qs.connectible() || !pt.connectible() || qs.is_infinite() {
+            return None;
+        }
+        let d = qs.p - pt.p;
+        let dist2 = d.length_squared();
+        let w = d / dist2.sqrt();
+        let f_pt = vertex_f(&pt, Some(&camera[t - 2]), w)?;
+        let f_qs = vertex_f(&qs, light.get(s.wrapping_sub(2)), -w)?;
+        let l = qs.beta * f_qs * f_pt * pt.beta / dist2;
+        if l.is_black() {
+            return None;
+        }
+        let target = match qs.surface {
+            Some(v) => LightTarget::Surface { p: v.surface.p, error: v.surface.p_error, n: qs.n },
+            None => LightTarget::Point(qs.p),
+        };
+        l * visibility(cx, &pt, qs.p, target, sampler, out)?
+    };
+    if l.is_black() || !l.is_finite() {
+        return None;
+    }
+    let weight = mis_weight(cx, view, (light, s), (camera, t), sampled);
+    Some((l * weight, film))
+}
+
+/// f |cos| at the surface vertex `v`, reached from `prev`, towards unit `w`, as its subpath
+/// carries light; None where it is zero.
+fn vertex_f(v: &PathVertex, prev: Option<&PathVertex>, w: Vec3) -> Option<Spectrum> {
+    let s = v.surface.as_ref()?;
+    let f = surface_f(s, v.towards(prev?), w, v.mode);
+    (!f.is_black()).then_some(f)
+}
+
+/// Transmittance of the segment from vertex `from` to `end` (`target`), or None if
+/// something blocks it.
+fn visibility(
+    cx: Context,
+    from: &PathVertex,
+    end: Vec3,
+    target: LightTarget,
+    sampler: &mut Sampler,
+    out: &mut PathOutput,
+) -> Option<Spectrum> {
+    let w = (end - from.p).normalize_or_zero();
+    let (origin, media) = match from.surface {
+        Some(v) => {
+            let (_, origin, crosses) = v.leave(v.frame.to_local(w))?;
+            (origin, v.media_after(cx.scene, crosses))
+        }
+        None => (from.p, Media::default()),
+    };
+    out.rays += 1;
+    out.shadow_rays += 1;
+    let tr = shadow(cx, (origin, w, target), media, sampler, &Wavelengths::Rgb);
+    (!tr.is_black()).then_some(tr)
+}
+
+/// 0 mapped to 1, for density ratios where a delta's density is 0.
+fn remap0(x: f32) -> f32 {
+    if x != 0.0 { x } else { 1.0 }
+}
+
+/// The power-heuristic weight of strategy (s, t) (pbrt-v4's `MISWeight`, squared ratios):
+/// the densities of the connection's end vertices and their predecessors are recomputed
+/// for the connection, and each other strategy's density is reached by the ratios of
+/// reverse to forward densities along the path.
+fn mis_weight(
+    cx: Context,
+    view: &View,
+    (light, s): (&[PathVertex], usize),
+    (camera, t): (&[PathVertex], usize),
+    sampled: Option<PathVertex>,
+) -> f32 {
+    if s + t == 2 {
+        return 1.0;
+    }
+    // The densities this strategy sees, per vertex: (forward, reverse, delta).
+    let mut cam: [(f32, f32, bool); MAX_VERTICES] = [(0.0, 0.0, false); MAX_VERTICES];
+    let mut lig: [(f32, f32, bool); MAX_VERTICES] = [(0.0, 0.0, false); MAX_VERTICES];
+    for (i, v) in camera[..t].iter().enumerate() {
+        cam[i] = (v.pdf_fwd, v.pdf_rev, v.delta);
+    }
+    for (i, v) in light[..s].iter().enumerate() {
+        lig[i] = (v.pdf_fwd, v.pdf_rev, v.delta);
+    }
+    let mut qs = (s > 0).then(|| light[s - 1]);
+    let mut pt = camera[t - 1];
+    if s == 1 {
+        qs = sampled;
+        if let Some(q) = qs {
+            lig[0] = (q.pdf_fwd, q.pdf_rev, false);
+        }
+    } else if t == 1 {
+        pt = sampled.unwrap_or(pt);
+        cam[0] = (pt.pdf_fwd, pt.pdf_rev, false);
+    }
+    // The connection's ends are not deltas.
+    cam[t - 1].2 = false;
+    if s > 0 {
+        lig[s - 1].2 = false;
+    }
+    // pt's reverse density: qs sampling pt (or the light subpath starting at pt).
+    cam[t - 1].1 = match qs {
+        Some(q) => density(cx, view, &q, if s > 1 { Some(&light[s - 2]) } else { None }, &pt),
+        None => light_origin_density(cx, &pt),
+    };
+    // pt's predecessor, from pt.
+    if t > 1 {
+        cam[t - 2].1 = match qs {
+            Some(q) => density(cx, view, &pt, Some(&q), &camera[t - 2]),
+            None => light_density(cx, &pt, &camera[t - 2]),
+        };
+    }
+    if let Some(q) = qs {
+        // qs's reverse density: pt sampling qs; and qs's predecessor, from qs.
+        lig[s - 1].1 = density(cx, view, &pt, if t > 1 { Some(&camera[t - 2]) } else { None }, &q);
+        if s > 1 {
+            lig[s - 2].1 = density(cx, view, &q, Some(&pt), &light[s - 2]);
+        }
+    }
+    let mut sum = 0.0f32;
+    let mut ri = 1.0f32;
+    for i in (1..t).rev() {
+        ri *= remap0(cam[i].1) / remap0(cam[i].0);
+        if !cam[i].2 && !cam[i - 1].2 {
+            sum += ri * ri;
+        }
+    }
+    ri = 1.0;
+    for i in (0..s).rev() {
+        ri *= remap0(lig[i].1) / remap0(lig[i].0);
+        let delta_before = if i > 0 {
+            lig[i - 1].2
+        } else {
+            match (s, qs) {
+                (1, Some(q)) => q.is_delta_light(),
+                _ => light[0].is_delta_light(),
+            }
+        };
+        if !lig[i].2 && !delta_before {
+            sum += ri * ri;
+        }
+    }
+    let w = 1.0 / (1.0 + sum);
+    if w.is_finite() { w } else { 0.0 }
+}

@@ -1,0 +1,186 @@
+//! Bidirectional path tracing converges to the path tracer's images where both can render
+//! them (the Cornell box; the glass box's delta lobes), finds the caustic a point light casts
+//! through glass, which the path tracer cannot, and renders the same bits on any number of
+//! threads although its light-tracing contributions land on any pixel.
+//!
+//! A BDPT render's own variance estimate misses the noise of what it splats, so its error is
+//! estimated from independent renders (seeds): the mean of K renders' blocks and the
+//! variance of that mean from their spread, against a long path-traced reference.
+
+mod common;
+
+use glam::{DVec3, Vec3};
+use lucent::integrator::{Integrator, Settings};
+use lucent::loader::builtin;
+use lucent::scene::{
+    Scene, SceneDesc,
+    camera::Camera,
+    light::{PunctualKind, PunctualLight},
+    material::Material,
+    shapes::{cuboid, uv_sphere},
+};
+use std::sync::Arc;
+
+const SIZE: u32 = 32;
+const BLOCK: u32 = 8;
+
+/// Block means of `k` renders of `settings` with seeds 1..=k, and the variance of their
+/// mean from the renders' spread.
+fn independent_blocks(scene: &Arc<Scene>, camera: Camera, settings: Settings, k: u64) -> Vec<(DVec3, DVec3)> {
+    let renders: Vec<Vec<(DVec3, DVec3)>> = (1..=k)
+        .map(|seed| {
+            let snap = common::render(scene, camera, Settings { seed, ..settings }, None);
+            assert_eq!(snap.rejected, 0, "NaN/Inf samples");
+            common::blocks(&snap, BLOCK)
+        })
+        .collect();
+    (0..renders[0].len())
+        .map(|b| {
+            let mean = renders.iter().map(|r| r[b].0).sum::<DVec3>() / k as f64;
+            let var = renders.iter().map(|r| (r[b].0 - mean) * (r[b].0 - mean)).sum::<DVec3>() / (k - 1) as f64;
+            (mean, var / k as f64)
+        })
+        .collect()
+}
+
+fn settings(integrator: Integrator, spp: u32, max_depth: u32) -> Settings {
+    Settings { width: SIZE, height: SIZE, integrator, target_spp: Some(spp), max_depth, ..Settings::default() }
+}
+
+/// BDPT's blocks agree with the path tracer's, at family-wise significance 1e-3.
+fn agrees_with_the_path_tracer(scene: &Arc<Scene>, camera: Camera, max_depth: u32, label: &str) {
+    let reference = common::render(scene, camera, settings(Integrator::Path, 2048, max_depth), None);
+    let bdpt = independent_blocks(scene, camera, settings(Integrator::Bdpt, 64, max_depth), 12);
+    let blocks = (SIZE / BLOCK).pow(2) as usize;
+    let z_max = common::sidak_z(1e-3, blocks * 3);
+    common::assert_block_means_agree(&bdpt, &common::blocks(&reference, BLOCK), 0..3, 0.0, z_max, label);
+}
+
+#[test]
+fn bdpt_agrees_with_the_path_tracer_on_the_cornell_box() {
+    let scene = Arc::new(Scene::build(builtin::cornell_box()));
+    let camera = scene.default_camera(1.0);
+    agrees_with_the_path_tracer(&scene, camera, 5, "Cornell box");
+}
+
+#[test]
+fn bdpt_agrees_with_the_path_tracer_through_mirrors_and_glass() {
+    let scene = Arc::new(Scene::build(common::load("cornell-box-glass.gltf")));
+    let camera = scene.default_camera(1.0);
+    agrees_with_the_path_tracer(&scene, camera, 8, "glass box");
+}
+
+/// A grey floor, a smooth glass ball above it, and a point light above the ball.
+fn point_light_over_glass() -> (Arc<Scene>, Camera) {
+    let light = PunctualLight {
+        name: "bulb".into(),
+        kind: PunctualKind::Point,
+        position: Vec3::new(0.0, 3.0, 0.0),
+        direction: -Vec3::Y,
+        color: Vec3::ONE,
+        intensity: 20.0,
+        range: None,
+        source: None,
+    };
+    let desc = SceneDesc {
+        name: "caustic".into(),
+        meshes: vec![
+            cuboid(Vec3::new(-3.0, -1.1, -3.0), Vec3::new(3.0, -1.0, 3.0), false, 0),
+            uv_sphere(Vec3::ZERO, 0.6, 48, 96, false, 1),
+        ],
+        materials: vec![Material::lambert("floor", Vec3::splat(0.7)), Material::glass("ball", 1.5, None)],
+        lights: vec![light],
+        ..SceneDesc::default()
+    };
+    let scene = Arc::new(Scene::build(desc));
+    // Looking down at the floor under the ball, past its side.
+    let camera = Camera::look_at(Vec3::new(0.0, 2.0, 3.5), Vec3::new(0.0, -1.0, 0.0), 0.7);
+    (scene, camera)
+}
+
+#[test]
+fn bdpt_finds_the_caustic_a_point_light_casts_through_glass() {
+    // The path tracer cannot connect a floor point to a point light through the ball (its
+    // shadow rays stop at refracting surfaces, and BSDF sampling never hits a point): under
+    // the ball it sees a shadow. BDPT's light subpaths refract through the ball and are seen
+    // by the camera where they land: the image holds more light than the path tracer's.
+    let (scene, camera) = point_light_over_glass();
+    let pt = common::render(&scene, camera, settings(Integrator::Path, 256, 8), None);
+    let bdpt = independent_blocks(&scene, camera, settings(Integrator::Bdpt, 64, 8), 8);
+    let total = |b: &[(DVec3, DVec3)]| b.iter().map(|x| x.0.element_sum()).sum::<f64>();
+    let var = |b: &[(DVec3, DVec3)]| b.iter().map(|x| x.1.element_sum()).sum::<f64>();
+    let (with, without) = (total(&bdpt), total(&common::blocks(&pt, BLOCK)));
+    let se = (var(&bdpt) + var(&common::blocks(&pt, BLOCK))).sqrt();
+    assert!(with - without > 10.0 * se, "BDPT {with:.4}, path tracer {without:.4} (se {se:.4})");
+}
+
+#[test]
+fn bdpt_renders_the_same_bits_on_any_number_of_threads() {
+    let scene = Arc::new(Scene::build(common::load("cornell-box-glass.gltf")));
+    let camera = scene.default_camera(1.0);
+    let s = settings(Integrator::Bdpt, 8, 6);
+    let (one, two) = (common::render(&scene, camera, s, Some(1)), common::render(&scene, camera, s, Some(2)));
+    assert_eq!(one.mean, two.mean);
+}
+
+#[test]
+fn bdpt_refuses_what_it_does_not_simulate() {
+    let scene = Arc::new(Scene::build(builtin::cornell_box()));
+    let camera = scene.default_camera(1.0);
+    let s = Settings { noise_threshold: Some(0.05), ..settings(Integrator::Bdpt, 8, 5) };
+    let job = lucent::render::Job { scene, camera, settings: s, window: None, aovs: false };
+    let err = lucent::render::RenderSession::new(job, None).err().expect("refused");
+    assert!(err.to_string().contains("noise-threshold"), "{err}");
+}
+
+#[test]
+fn materials_of_every_kind_stay_finite_under_bdpt() {
+    // Glossy, metallic and transmitting materials, lit by an area light and the sky.
+    let mut desc = builtin::cornell_box();
+    desc.materials.push(Material { metallic: 1.0, roughness: 0.3, ..Material::lambert("metal", Vec3::splat(0.9)) });
+    desc.materials.push(Material { transmission: 1.0, roughness: 0.4, ..Material::glass("frosted", 1.5, None) });
+    let n = desc.materials.len() as u32;
+    desc.meshes.push(uv_sphere(Vec3::new(-0.1, -0.1, 0.0), 0.1, 16, 32, false, n - 2));
+    desc.meshes.push(uv_sphere(Vec3::new(0.1, -0.1, 0.1), 0.1, 16, 32, false, n - 1));
+    let scene = Arc::new(Scene::build(desc));
+    let camera = scene.default_camera(1.0);
+    let snap = common::render(&scene, camera, settings(Integrator::Bdpt, 16, 7), None);
+    assert_eq!(snap.rejected, 0);
+    assert!(snap.mean.iter().all(|p| p.is_finite()));
+}
+
+#[test]
+fn bdpt_agrees_with_the_path_tracer_under_the_sky_and_a_sun() {
+    // Light from infinitely far away, both kinds: the built-in sky (importance-sampled) and a
+    // directional light, on rough metal, frosted glass and a diffuse floor.
+    use lucent::scene::environment::{EnvSettings, Environment};
+    let sun = PunctualLight {
+        name: "sun".into(),
+        kind: PunctualKind::Directional,
+        position: Vec3::ZERO,
+        direction: Vec3::new(0.4, -1.0, -0.3).normalize(),
+        color: Vec3::new(1.0, 0.9, 0.8),
+        intensity: 2.0,
+        range: None,
+        source: None,
+    };
+    let desc = SceneDesc {
+        name: "outdoors".into(),
+        meshes: vec![
+            cuboid(Vec3::new(-2.0, -1.1, -2.0), Vec3::new(2.0, -1.0, 2.0), false, 0),
+            uv_sphere(Vec3::new(-0.6, -0.4, 0.0), 0.55, 24, 48, false, 1),
+            uv_sphere(Vec3::new(0.6, -0.4, 0.0), 0.55, 24, 48, false, 2),
+        ],
+        materials: vec![
+            Material::lambert("floor", Vec3::splat(0.6)),
+            Material { metallic: 1.0, roughness: 0.35, ..Material::lambert("metal", Vec3::new(0.9, 0.7, 0.4)) },
+            Material { roughness: 0.3, ..Material::glass("frosted", 1.5, None) },
+        ],
+        lights: vec![sun],
+        ..SceneDesc::default()
+    };
+    let sky = Environment::load(EnvSettings::built_in()).unwrap();
+    let scene = Arc::new(Scene::build(desc).with_environment(Some(sky)));
+    let camera = Camera::look_at(Vec3::new(0.0, 1.0, 3.5), Vec3::new(0.0, -0.5, 0.0), 0.8);
+    agrees_with_the_path_tracer(&scene, camera, 6, "sky and sun");
+}
