@@ -322,12 +322,25 @@ fn under_xvfb(name: &str) -> Option<(PathBuf, common::Scratch, PathBuf)> {
 
 #[test]
 fn the_real_window_saves_the_same_image_as_the_headless_renderer() {
-    let Some((xvfb, dir, runtime)) = under_xvfb("e2e") else { return };
+    window_and_headless_agree("e2e", &[]);
+}
+
+#[test]
+fn bidirectional_path_tracing_runs_live_in_the_window_as_it_renders_headless() {
+    // Its light-tracing contributions land on any pixel of the window's film.
+    window_and_headless_agree("e2e-bdpt", &["--integrator", "bdpt"]);
+}
+
+/// The viewer under Xvfb, with `extra` settings, saves a screenshot whose EXR is the
+/// headless render's, bit for bit.
+fn window_and_headless_agree(name: &str, extra: &[&str]) {
+    let Some((xvfb, dir, runtime)) = under_xvfb(name) else { return };
     let shot = dir.join("shot.png");
     let args = ["--spp", "8", "--width", "64", "--height", "48", "--seed", "3"];
     let out = Command::new(xvfb)
         .args(["-a", "-s", "-screen 0 1280x800x24", env!("CARGO_BIN_EXE_lucent"), "view"])
         .args(args)
+        .args(extra)
         .arg("--screenshot")
         .arg(&shot)
         .env_remove("WAYLAND_DISPLAY")
@@ -341,6 +354,7 @@ fn the_real_window_saves_the_same_image_as_the_headless_renderer() {
     let status = Command::new(env!("CARGO_BIN_EXE_lucent"))
         .arg("render")
         .args(args)
+        .args(extra)
         .arg("--out")
         .arg(&reference)
         .status()
