@@ -73,6 +73,27 @@ fn pieces_by_sample_range_merge_to_the_single_process_image_bit_for_bit() {
     assert!(!Path::new(&bad).exists(), "a refused merge writes nothing");
 }
 
+#[test]
+fn bidirectional_pieces_by_sample_range_merge_to_the_single_process_image_bit_for_bit() {
+    // A piece's pixels hold the light-traced splats of its own samples' light paths, wherever
+    // they landed; a merge adds them exactly, as it adds the camera paths' sums.
+    let d = common::scratch("pieces-bdpt");
+    let p = |name: &str| d.join(name).to_str().unwrap().to_owned();
+    let glass = common::asset("cornell-box-glass.gltf");
+    let bdpt = ["--integrator", "bdpt", glass.to_str().unwrap()];
+    render(&d.join("whole.exr"), &[&bdpt[..], &["--spp", "7"]].concat());
+    for (range, name) in [("0..3", "a.part"), ("3..7", "b.part")] {
+        render(&d.join(name), &[&bdpt[..], &["--samples", range]].concat());
+    }
+    let (ok, err) = lucent(&["merge", &p("b.part"), &p("a.part"), "--out", &p("merged.exr")]);
+    assert!(ok, "{err}");
+    assert_eq!(std::fs::read(d.join("whole.exr")).unwrap(), std::fs::read(d.join("merged.exr")).unwrap());
+    refused(
+        &[&["render", "--region", "0,0,8,8", "--out", &p("r.part")][..], &bdpt[..]].concat(),
+        "renders whole frames only",
+    );
+}
+
 /// Reads an EXR's RGB pixels.
 fn exr(path: &Path) -> image::Rgb32FImage {
     image::open(path).unwrap().into_rgb32f()
@@ -150,6 +171,10 @@ fn farm_job_scripts_name_every_piece_once_and_bad_requests_are_refused() {
     assert!(d.join("view.toml").exists());
     refused(&args(&farm(&["--pieces", "11"])), "--pieces 11: between 1 and the render's 10 samples per pixel");
     refused(&args(&farm(&["--pieces", "19", "--split", "regions"])), "between 1 and the render's 18 rows");
+    refused(
+        &args(&farm(&["--pieces", "2", "--split", "regions", "--integrator", "bdpt"])),
+        "renders whole frames only",
+    );
     refused(&args(&farm(&["--pieces", "2", "--mem", "4G\n#SBATCH --x"])), "#SBATCH lines take no spaces");
     std::fs::write(d.join("pieces/old.part"), b"a piece of an earlier render").unwrap();
     refused(&args(&farm(&["--pieces", "2"])), "already holds pieces: give another --dir");

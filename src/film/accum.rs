@@ -6,6 +6,7 @@
 //! With a noise threshold, tiles also keep what the pixels' error estimates need
 //! (`super::adaptive`) and which pixels still take samples.
 
+use super::splat::Splats;
 use super::window::Window;
 use crate::spectrum::Spectrum;
 use glam::{DVec3, UVec2, Vec3};
@@ -14,7 +15,7 @@ use glam::{DVec3, UVec2, Vec3};
 pub const TILE_SIZE: u32 = 16;
 
 /// Fraction bits of the fixed-point sums: a resolution of 2^-50 (8.9e-16).
-const FRACTION_BITS: i32 = 50;
+pub(super) const FRACTION_BITS: u32 = 50;
 
 /// Largest sample magnitude kept (larger ones are clamped to it): 2^46 (7.0e13), so that
 /// 2^30 samples of it still fit in an i128 at 2^50.
@@ -62,6 +63,13 @@ impl PixelSums {
     /// Mean radiance so far (zero before the first sample).
     pub fn mean(&self) -> DVec3 {
         if self.count == 0 { DVec3::ZERO } else { self.total() / self.count as f64 }
+    }
+
+    /// Adds fixed-point `sums` (splatted contributions) to the sum of the samples.
+    fn add_to_sum(&mut self, sums: [i128; 3]) {
+        for (s, v) in self.sum.iter_mut().zip(sums) {
+            *s += v;
+        }
     }
 
     /// Adds another pixel's sums (a piece of the same pixel's samples).
@@ -302,9 +310,29 @@ impl Film {
         img
     }
 
-    /// Row-major image of per-pixel means.
-    pub fn mean_image(&self) -> Vec<Vec3> {
-        self.image(|t, i| t.pixels[i].mean().as_vec3())
+    /// Row-major image of per-pixel means, with `splats` (of a whole-frame film) added to
+    /// each pixel's sum before it is divided, as `add_splats` and `lucent merge` add them.
+    pub fn mean_image(&self, splats: Option<&Splats>) -> Vec<Vec3> {
+        self.image(|t, i| {
+            let mut p = t.pixels[i];
+            if let Some(s) = splats {
+                p.add_to_sum(s.film_sums(self.index(t, i)));
+            }
+            p.mean().as_vec3()
+        })
+    }
+
+    /// Adds `splats` (of a whole-frame film) to each pixel's sum, so that the film's sums
+    /// are the image's, as a piece holds them.
+    pub fn add_splats(&mut self, splats: &Splats) {
+        debug_assert_eq!(self.window, Window::full(self.width, self.height));
+        let width = self.width;
+        for tile in &mut self.tiles {
+            for (i, p) in tile.pixels.iter_mut().enumerate() {
+                let (x, y) = (tile.origin.x + i as u32 % tile.size.x, tile.origin.y + i as u32 / tile.size.x);
+                p.add_to_sum(splats.film_sums((y * width + x) as usize));
+            }
+        }
     }
 
     /// Row-major images of the estimated variance of each pixel's mean, per channel and of
@@ -369,7 +397,7 @@ mod tests {
         let film = Film::new(37, 20);
         let covered: u32 = film.tiles.iter().map(|t| t.size.x * t.size.y).sum();
         assert_eq!(covered, 37 * 20);
-        assert_eq!(film.mean_image().len(), 37 * 20);
+        assert_eq!(film.mean_image(None).len(), 37 * 20);
         let mut film = Film::window(Window { x0: 3, y0: 5, x1: 40, y1: 25 });
         for tile in &mut film.tiles {
             for (i, px) in tile.pixels.iter_mut().enumerate() {
@@ -391,7 +419,7 @@ mod tests {
         tile.add(UVec2::new(1, 1), Spectrum::splat(f32::INFINITY));
         tile.add(UVec2::new(1, 1), Spectrum::splat(4.0));
         assert_eq!(film.rejected(), 2);
-        assert_eq!(film.mean_image()[5], Vec3::splat(3.0));
+        assert_eq!(film.mean_image(None)[5], Vec3::splat(3.0));
         assert!((film.variance_images(false).0[5].x - 1.0).abs() < 1e-6, "s^2 = 2, n = 2");
     }
 

@@ -3,8 +3,9 @@
 //! taken. They are summed per pixel in 64-bit fixed point by atomic adds, which are exact,
 //! so the sums (and the image) are the same whatever the thread count and the order.
 
+use super::accum::FRACTION_BITS as FILM_FRACTION_BITS;
 use crate::spectrum::Spectrum;
-use glam::{Vec2, Vec3};
+use glam::Vec2;
 use std::sync::atomic::{AtomicI64, AtomicU64, Ordering};
 
 /// Fractional bits of the fixed-point sums: 2^-24 resolution, sums up to 5.5e11.
@@ -51,16 +52,10 @@ impl Splats {
         }
     }
 
-    /// Row-major image of the sums over `spp` (a splat is one sample's share of the pixel).
-    pub fn image(&self, spp: u32) -> Vec<Vec3> {
-        let scale = 1.0 / ((1u64 << FRACTION_BITS) as f64 * spp.max(1) as f64);
-        self.sums
-            .iter()
-            .map(|p| {
-                let [r, g, b] = p.each_ref().map(|s| s.load(Ordering::Relaxed) as f64 * scale);
-                Vec3::new(r as f32, g as f32, b as f32)
-            })
-            .collect()
+    /// Pixel `i`'s sums (row-major) in the film's fixed point (`accum::FRACTION_BITS`),
+    /// exactly: a splat is one sample's share of the pixel, added to its samples' sum.
+    pub fn film_sums(&self, i: usize) -> [i128; 3] {
+        self.sums[i].each_ref().map(|s| (s.load(Ordering::Relaxed) as i128) << (FILM_FRACTION_BITS - FRACTION_BITS))
     }
 
     /// Contributions dropped for being NaN or infinite.
@@ -88,12 +83,13 @@ mod tests {
         for v in values.iter().rev() {
             b.add(Vec2::new(2.9, 1.99), Spectrum::splat(*v));
         }
-        let (ia, ib) = (a.image(10), b.image(10));
+        let image = |s: &Splats| (0..12).map(|i| s.film_sums(i)).collect::<Vec<_>>();
+        let (ia, ib) = (image(&a), image(&b));
         assert_eq!(ia, ib, "the same sums in either order");
-        assert!(ia[4 + 2].x > 0.0 && ia.iter().filter(|p| p.x != 0.0).count() == 1);
+        assert!(ia[4 + 2][0] > 0 && ia.iter().filter(|p| p[0] != 0).count() == 1);
         a.add(Vec2::new(-0.5, 1.0), Spectrum::ONE);
         a.add(Vec2::new(4.0, 1.0), Spectrum::ONE);
-        assert_eq!(a.image(10), ia, "off the frame: nothing");
+        assert_eq!(image(&a), ia, "off the frame: nothing");
         a.add(Vec2::new(0.5, 0.5), Spectrum::splat(f32::NAN));
         assert_eq!(a.rejected(), 1);
     }

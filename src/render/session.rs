@@ -412,8 +412,10 @@ fn check_job(job: &Job, limits: &Limits) -> Result<(), SessionError> {
                 "adds light to any pixel, so a pixel's noise cannot stop its samples (no --noise-threshold)",
             );
         }
-        if job.window.is_some() || s.first_sample != 0 {
-            return refuse("renders whole images only (its light paths land anywhere): no regions or sample pieces");
+        if job.window.is_some() {
+            return refuse(
+                "renders whole frames only (a region's light paths land anywhere in the frame): split it by --samples instead",
+            );
         }
     }
     if let Some(w) = job.window {
@@ -529,7 +531,7 @@ fn coordinate(shared: &Shared, pool: &rayon::ThreadPool) {
             generation: a.generation,
             width: a.film.width,
             height: a.film.height,
-            mean: if images { mean_image(&a.film, a.splats.as_ref(), a.spp) } else { Vec::new() },
+            mean: if images { a.film.mean_image(a.splats.as_ref()) } else { Vec::new() },
             variance,
             luminance_variance,
             estimate: ErrorEstimate::of(a.job.settings.sampler, replicates),
@@ -542,23 +544,19 @@ fn coordinate(shared: &Shared, pool: &rayon::ThreadPool) {
             rays: a.traced,
             rejected: a.film.rejected() + a.splats.as_ref().map_or(0, Splats::rejected),
             done: a.done(),
-            // A finished job adds nothing more: its sums move into the last snapshot.
-            film: a.done().then(|| Arc::new(std::mem::replace(&mut a.film, Film::new(0, 0)))),
+            // A finished job adds nothing more: its sums move into the last snapshot, with
+            // its splats (which a piece holds in its pixels' sums).
+            film: a.done().then(|| {
+                let mut film = std::mem::replace(&mut a.film, Film::new(0, 0));
+                if let Some(s) = &a.splats {
+                    film.add_splats(s);
+                }
+                Arc::new(film)
+            }),
         });
         shared.lock().latest = Some(snapshot);
         shared.published.notify_all();
     }
-}
-
-/// The film's mean image, with the splatted contributions of `spp` samples per pixel.
-fn mean_image(film: &Film, splats: Option<&Splats>, spp: u32) -> Vec<Vec3> {
-    let mut mean = film.mean_image();
-    if let Some(splats) = splats {
-        for (m, s) in mean.iter_mut().zip(splats.image(spp)) {
-            *m += s;
-        }
-    }
-    mean
 }
 
 /// Everything a tile needs to render its share of one pass.
