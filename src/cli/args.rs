@@ -422,11 +422,13 @@ pub enum StrategyName {
     GridPixel,
     /// Distribution ray tracing on the 16-direction theta/phi grid (biased).
     GridHemisphere,
+    /// Bidirectional path tracing: every connection of a camera and a light subpath, MIS.
+    Bdpt,
 }
 
 impl StrategyName {
     /// Every strategy, in the study's order.
-    pub const ALL: [StrategyName; 9] = [
+    pub const ALL: [StrategyName; 10] = [
         StrategyName::PtUniform,
         StrategyName::PtCosine,
         StrategyName::PtExplicit,
@@ -436,6 +438,7 @@ impl StrategyName {
         StrategyName::Drt8,
         StrategyName::GridPixel,
         StrategyName::GridHemisphere,
+        StrategyName::Bdpt,
     ];
 }
 

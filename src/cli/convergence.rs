@@ -58,6 +58,7 @@ impl StrategyName {
             StrategyName::Drt8 => drt(8, Directions::Stratified),
             StrategyName::GridPixel => Settings { pixel_sampling: PixelSampling::Grid, strata: 4, ..pt },
             StrategyName::GridHemisphere => drt(16, Directions::Grid),
+            StrategyName::Bdpt => Settings { integrator: Integrator::Bdpt, ..base },
         }
     }
 

@@ -174,6 +174,7 @@ pub fn sample_direct(cx: Context, vertex: &Vertex, sampler: &mut Sampler, wl: &W
 /// BSDF's value and density for it; None where it carries nothing. The path tracer draws
 /// and computes its next direction before it traces the shadow ray, so that the processor
 /// works on both at once.
+#[inline(always)]
 pub fn sample_light(cx: Context, vertex: &Vertex, sampler: &mut Sampler) -> Option<PendingLight> {
     let Context { scene, settings } = cx;
     let u_select = sampler.next_2d();

@@ -72,8 +72,9 @@ fn trace(
         Spectrum::ONE
     };
     let mut slot = None;
-    let (emission, step) = arrive(cx, (&ray, &hit), media, bounces, (&mut Wavelengths::Rgb, aov), &mut slot);
-    let mut radiance = emission.unwrap_or(Spectrum::ZERO);
+    let mut radiance = Spectrum::ZERO;
+    let found = |le| radiance = le;
+    let step = arrive(cx, (&ray, &hit), media, bounces, (&mut Wavelengths::Rgb, aov), &mut slot, found);
     let vertex = match (step, &slot) {
         (Step::Scatter, Some(vertex)) => vertex,
         (Step::Pass { weight, ray, media }, _) => {

@@ -106,10 +106,8 @@ pub fn radiance<const MEDIA: bool>(
 
         // The surface: the light it emits, then a vertex, passing straight through, or the end.
         let mut slot = None;
-        let (emission, step) = arrive(cx, (&ray, &hit), media, bounces, (wl, &mut aov), &mut slot);
-        if let Some(le) = emission {
-            out.radiance += throughput * le;
-        }
+        let found = |le| out.radiance += throughput * le;
+        let step = arrive(cx, (&ray, &hit), media, bounces, (wl, &mut aov), &mut slot, found);
         let vertex = match (step, &slot) {
             (Step::Scatter, Some(vertex)) => vertex,
             (Step::Pass { weight, ray: beyond, media: around }, _) => {

@@ -140,8 +140,9 @@ pub enum Step {
     End,
 }
 
-/// The ray `ray`, in `media`, meets the surface of `hit`: the radiance its front emits back
-/// along the ray (None from behind), weighted against light sampling, and the next step.
+/// The ray `ray`, in `media`, meets the surface of `hit`: `found` receives the radiance its
+/// front emits back along the ray (nothing from behind), weighted against light sampling,
+/// and the next step is returned.
 /// The vertex is built in the caller's `slot` (so that it is not moved: it is large); the
 /// AOV trace records it. At `max_depth` the vertex is built only where light may pass
 /// straight through it (or the AOVs still need it).
@@ -153,30 +154,33 @@ pub fn arrive<'a>(
     bounces: Bounces,
     (wl, aov): (&mut Wavelengths, &mut AovTrace),
     slot: &mut Option<Vertex<'a>>,
-) -> (Option<Spectrum>, Step) {
+    found: impl FnOnce(Spectrum),
+) -> Step {
     let Context { scene, settings } = cx;
     let surface = scene.surface(hit);
     let Bounces { depth, travelled, last } = bounces;
-    let emission = (surface.ng.dot(ray.d) < 0.0).then(|| emitted(cx, &surface, -ray.d, travelled + hit.t, last, wl));
+    if surface.ng.dot(ray.d) < 0.0 {
+        found(emitted(cx, &surface, -ray.d, travelled + hit.t, last, wl));
+    }
     if depth == settings.max_depth && !scene.features.see_through && media.is_empty() {
         if aov.pending() {
             // Its own wavelengths: the path's must not change for the AOVs' sake.
             aov.surface(&Vertex::new(cx, surface, ray.d, media, &mut Wavelengths::Rgb));
         }
-        return (emission, Step::End);
+        return Step::End;
     }
     let vertex = slot.insert(Vertex::new(cx, surface, ray.d, media, wl));
     aov.surface(vertex);
     if depth < settings.max_depth {
-        return (emission, Step::Scatter);
+        return Step::Scatter;
     }
     // No bounce is left, but light passing straight through still goes on.
     match vertex.bsdf.null_transmission(vertex.wo).filter(|p| !p.is_black()) {
         Some(weight) => {
             aov.delta(weight, 1.0);
             let next = Ray { o: vertex.behind, d: ray.d, tmax: f32::INFINITY };
-            (emission, Step::Pass { weight, ray: next, media: vertex.media_after(scene, true) })
+            Step::Pass { weight, ray: next, media: vertex.media_after(scene, true) }
         }
-        None => (emission, Step::End),
+        None => Step::End,
     }
 }

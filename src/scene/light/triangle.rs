@@ -51,18 +51,16 @@ impl TriangleLight {
     /// A ray leaving the triangle's front: a point uniform over its area (`u_pos`) and a
     /// cosine-weighted direction about its normal (`u_dir`), Lambertian emission's.
     pub fn sample_le(&self, scene: &Scene, u_pos: Vec2, u_dir: Vec2) -> Option<LightLeSample> {
-        let b = warp::uniform_triangle(u_pos);
-        let (q, error, ng, material) = scene.light_position(self.tri, b);
-        let local = warp::cos_hemisphere(u_dir);
+        // The whole surface point (not `light_position`, which `sample_li` alone calls so
+        // that it stays inlined there).
+        let surface = scene.light_point(self.tri, warp::uniform_triangle(u_pos));
+        let (local, ng) = (warp::cos_hemisphere(u_dir), surface.ng);
         let d = Frame::from_normal(ng).to_world(local);
-        let radiance = match scene.materials[material as usize].uniform_emission() {
-            Some(radiance) => radiance,
-            None => scene.emission(&scene.light_point(self.tri, b)),
-        };
+        let radiance = scene.emission(&surface);
         if radiance.is_black() || local.z <= 0.0 || !d.is_finite() {
             return None;
         }
-        let ray = Ray { o: offset_ray_origin(q, error, ng, d), d, tmax: f32::INFINITY };
+        let ray = Ray { o: offset_ray_origin(surface.p, surface.p_error, ng, d), d, tmax: f32::INFINITY };
         let (pdf_pos, pdf_dir) = (1.0 / self.area, warp::cos_hemisphere_pdf(local.z));
         Some(LightLeSample { ray, n: Some(ng), radiance, pdf_pos, pdf_dir })
     }
