@@ -95,7 +95,7 @@ fn a_pixels_samples_taken_together_are_the_bits_of_each_taken_alone() {
                 start..start + 12,
                 false,
                 |i, out| together.push((i, out)),
-                &mut |_, _| {},
+                (&mut |_, _| {}, None),
             );
             assert_eq!(together.len(), 12);
             for (i, out) in together {

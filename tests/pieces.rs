@@ -76,22 +76,28 @@ fn pieces_by_sample_range_merge_to_the_single_process_image_bit_for_bit() {
 #[test]
 fn bidirectional_pieces_by_sample_range_merge_to_the_single_process_image_bit_for_bit() {
     // A piece's pixels hold the light-traced splats of its own samples' light paths, wherever
-    // they landed; a merge adds them exactly, as it adds the camera paths' sums.
-    let d = common::scratch("pieces-bdpt");
-    let p = |name: &str| d.join(name).to_str().unwrap().to_owned();
+    // they landed; a merge adds them exactly, as it adds the camera paths' sums. Under vertex
+    // connection and merging a sample index is an iteration, with its own light subpaths
+    // and radius, so a piece's iterations are the whole render's.
     let glass = common::asset("cornell-box-glass.gltf");
-    let bdpt = ["--integrator", "bdpt", glass.to_str().unwrap()];
-    render(&d.join("whole.exr"), &[&bdpt[..], &["--spp", "7"]].concat());
-    for (range, name) in [("0..3", "a.part"), ("3..7", "b.part")] {
-        render(&d.join(name), &[&bdpt[..], &["--samples", range]].concat());
+    for integrator in ["bdpt", "vcm"] {
+        let d = common::scratch(&format!("pieces-{integrator}"));
+        let p = |name: &str| d.join(name).to_str().unwrap().to_owned();
+        let bidirectional = ["--integrator", integrator, glass.to_str().unwrap()];
+        render(&d.join("whole.exr"), &[&bidirectional[..], &["--spp", "7"]].concat());
+        for (range, name) in [("0..3", "a.part"), ("3..7", "b.part")] {
+            render(&d.join(name), &[&bidirectional[..], &["--samples", range]].concat());
+        }
+        let (ok, err) = lucent(&["merge", &p("b.part"), &p("a.part"), "--out", &p("merged.exr")]);
+        assert!(ok, "{err}");
+        let (whole, merged) =
+            (std::fs::read(d.join("whole.exr")).unwrap(), std::fs::read(d.join("merged.exr")).unwrap());
+        assert!(whole == merged, "{integrator}: the merged pieces differ from the whole render");
+        refused(
+            &[&["render", "--region", "0,0,8,8", "--out", &p("r.part")][..], &bidirectional[..]].concat(),
+            "renders whole frames only",
+        );
     }
-    let (ok, err) = lucent(&["merge", &p("b.part"), &p("a.part"), "--out", &p("merged.exr")]);
-    assert!(ok, "{err}");
-    assert_eq!(std::fs::read(d.join("whole.exr")).unwrap(), std::fs::read(d.join("merged.exr")).unwrap());
-    refused(
-        &[&["render", "--region", "0,0,8,8", "--out", &p("r.part")][..], &bdpt[..]].concat(),
-        "renders whole frames only",
-    );
 }
 
 /// Reads an EXR's RGB pixels.

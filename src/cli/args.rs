@@ -424,11 +424,13 @@ pub enum StrategyName {
     GridHemisphere,
     /// Bidirectional path tracing: every connection of a camera and a light subpath, MIS.
     Bdpt,
+    /// Vertex connection and merging: BDPT plus merging with every light subpath, MIS.
+    Vcm,
 }
 
 impl StrategyName {
     /// Every strategy, in the study's order.
-    pub const ALL: [StrategyName; 10] = [
+    pub const ALL: [StrategyName; 11] = [
         StrategyName::PtUniform,
         StrategyName::PtCosine,
         StrategyName::PtExplicit,
@@ -439,6 +441,7 @@ impl StrategyName {
         StrategyName::GridPixel,
         StrategyName::GridHemisphere,
         StrategyName::Bdpt,
+        StrategyName::Vcm,
     ];
 }
 

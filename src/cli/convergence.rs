@@ -59,12 +59,13 @@ impl StrategyName {
             StrategyName::GridPixel => Settings { pixel_sampling: PixelSampling::Grid, strata: 4, ..pt },
             StrategyName::GridHemisphere => drt(16, Directions::Grid),
             StrategyName::Bdpt => Settings { integrator: Integrator::Bdpt, ..base },
+            StrategyName::Vcm => Settings { integrator: Integrator::Vcm, ..base },
         }
     }
 
     /// Whether the strategy is unbiased (its error should fall as time^-1/2).
     pub fn unbiased(self) -> bool {
-        !matches!(self, StrategyName::GridPixel | StrategyName::GridHemisphere)
+        !matches!(self, StrategyName::GridPixel | StrategyName::GridHemisphere | StrategyName::Vcm)
     }
 
     /// Name as used on the command line and in the outputs.

@@ -92,8 +92,11 @@ pub fn run(args: &FarmSlurmArgs) -> Result<(), String> {
     let mut view = args.options.resolve(Some(64))?;
     let s = view.settings;
     let spp = s.target_spp.expect("a default target is given");
-    if s.integrator == crate::integrator::Integrator::Bdpt && args.split == Split::Regions {
-        return Err("bidirectional path tracing renders whole frames only (a region's light paths land anywhere in the frame): use --split samples".into());
+    if s.integrator.is_bidirectional() && args.split == Split::Regions {
+        return Err(format!(
+            "--integrator {} renders whole frames only (a region's light paths land anywhere in the frame): use --split samples",
+            s.integrator.name()
+        ));
     }
     let pieces = split(args.split, args.pieces, spp, (s.width, s.height), s.noise_threshold.is_some())?;
     if args.options.threads.is_some() {

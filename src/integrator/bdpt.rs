@@ -22,6 +22,7 @@ use super::Context;
 use super::direct::shadow;
 use super::kernel::{PathOutput, View};
 use super::media::{Media, transmittance};
+use super::photons::{Densities, LightVertex, Photons, light_sampler};
 use super::vertex::Vertex;
 use crate::bsdf::{LobeFlags, TransportMode};
 use crate::math::sampler::Sampler;
@@ -31,10 +32,10 @@ use crate::scene::{
     light::{Light, LightTarget},
 };
 use crate::spectrum::{Spectrum, Wavelengths};
-use glam::{Vec2, Vec3};
+use glam::{UVec2, Vec2, Vec3};
 
 /// Most vertices a subpath keeps (its camera or light vertex and its bounces).
-const MAX_VERTICES: usize = 34;
+pub(super) const MAX_VERTICES: usize = 34;
 
 /// What a subpath vertex is.
 #[derive(Clone, Copy)]
@@ -50,16 +51,16 @@ enum Kind<'a> {
 
 /// A subpath vertex (pbrt-v4's BDPT `Vertex`).
 #[derive(Clone, Copy)]
-struct PathVertex<'a> {
+pub(super) struct PathVertex<'a> {
     kind: Kind<'a>,
     /// Position (for a light at infinity, the direction light arrives from, negated).
-    p: Vec3,
+    pub(super) p: Vec3,
     /// Geometric normal on the side the subpath arrived from (zero off surfaces).
-    n: Vec3,
+    pub(super) n: Vec3,
     /// The surface vertex: BSDF, frame, ray origins.
     surface: Option<Vertex<'a>>,
     /// Throughput from the subpath's start up to this vertex, over its density.
-    beta: Spectrum,
+    pub(super) beta: Spectrum,
     /// Density of this vertex per unit area (per solid angle for a light at infinity) as the
     /// subpath sampled it, and as the other direction would have.
     pdf_fwd: f32,
@@ -82,12 +83,12 @@ impl<'a> PathVertex<'a> {
     }
 
     /// A light at infinity (directional or environment): its "position" is a direction.
-    fn is_infinite(&self) -> bool {
+    pub(super) fn is_infinite(&self) -> bool {
         matches!(self.kind, Kind::Light(Light::Directional(_) | Light::Environment, _))
     }
 
     /// A light whose position or direction is a delta (point, spot, directional).
-    fn is_delta_light(&self) -> bool {
+    pub(super) fn is_delta_light(&self) -> bool {
         matches!(self.kind, Kind::Light(Light::Point(_) | Light::Spot(_) | Light::Directional(_), _))
     }
 
@@ -100,19 +101,20 @@ impl<'a> PathVertex<'a> {
         }
     }
 
+    /// A surface vertex a merge may join: one with a non-delta lobe.
+    fn mergeable(&self) -> bool {
+        matches!(self.kind, Kind::Surface) && self.connectible()
+    }
+
+    /// Its densities, as multiple importance sampling weighs strategies with them.
+    pub(super) fn densities(&self) -> Densities {
+        Densities { fwd: self.pdf_fwd, rev: self.pdf_rev, delta: self.delta, merge: self.mergeable() }
+    }
+
     /// Converts a solid-angle density at this vertex towards `next` into a density per unit
     /// area at `next` (or leaves it per solid angle for a light at infinity).
     fn convert(&self, pdf: f32, next: &PathVertex) -> f32 {
-        if next.is_infinite() {
-            return pdf;
-        }
-        let w = next.p - self.p;
-        let dist2 = w.length_squared();
-        if dist2 == 0.0 {
-            return 0.0;
-        }
-        let cos = if next.n == Vec3::ZERO { 1.0 } else { next.n.dot(w / dist2.sqrt()).abs() };
-        pdf * cos / dist2
+        if next.is_infinite() { pdf } else { area_density(pdf, self.p, next.p, next.n) }
     }
 
     /// Unit direction towards `other`; for light at infinity, the direction it comes from.
@@ -126,21 +128,40 @@ impl<'a> PathVertex<'a> {
     }
 }
 
+/// Vertex merging's part of a sample: the iteration's light vertices, and the pixel and
+/// iteration whose light subpath the sample's connections use.
+#[derive(Clone, Copy)]
+pub struct Merging<'p> {
+    /// The iteration's light vertices.
+    pub photons: &'p Photons,
+    /// The sample's pixel.
+    pub pixel: UVec2,
+    /// The iteration (sample index).
+    pub index: u64,
+}
+
 /// What one BDPT sample adds to its own pixel, and the light-tracing contributions it splats
-/// elsewhere (film positions in pixels).
+/// elsewhere (film positions in pixels). With `merging` (vertex connection and merging) the
+/// light subpath is the pixel's of the iteration, and every camera vertex also merges with
+/// the iteration's light vertices near it; every strategy's weight then counts the merges.
 pub fn radiance(
     cx: Context,
     view: &View,
     ray: Ray,
     sampler: &mut Sampler,
     splat: &mut dyn FnMut(Vec2, Spectrum),
+    merging: Option<Merging>,
 ) -> PathOutput {
     let mut out = PathOutput::default();
     let max = (cx.settings.max_depth as usize + 2).min(MAX_VERTICES);
     let mut camera: Vec<PathVertex> = Vec::with_capacity(max);
     let mut light: Vec<PathVertex> = Vec::with_capacity(max);
     camera_subpath(cx, view, ray, sampler, max, &mut camera, &mut out);
-    light_subpath(cx, sampler, max - 1, &mut light, &mut out);
+    match merging {
+        Some(m) => light_subpath(cx, &mut light_sampler(cx, m.pixel, m.index), max - 1, &mut light, &mut out),
+        None => light_subpath(cx, sampler, max - 1, &mut light, &mut out),
+    }
+    let eta = merging.map_or(0.0, |m| m.photons.eta);
     let mut total = Spectrum::ZERO;
     for t in 1..=camera.len() {
         for s in 0..=light.len() {
@@ -148,7 +169,7 @@ pub fn radiance(
             if (s == 1 && t == 1) || depth < 0 || depth > cx.settings.max_depth as i64 {
                 continue;
             }
-            if let Some((l, film)) = connect(cx, view, (&light, s), (&camera, t), sampler, &mut out) {
+            if let Some((l, film)) = connect(cx, view, (&light, s), (&camera, t), (sampler, eta), &mut out) {
                 match film {
                     Some(film) => splat(film, l),
                     None => total += l,
@@ -156,8 +177,93 @@ pub fn radiance(
             }
         }
     }
+    if let Some(m) = merging {
+        total += merge(cx, &camera, m.photons);
+    }
     out.radiance = total;
     out
+}
+
+/// Vertex merging: each camera vertex with a non-delta lobe, past the camera, joined with
+/// the iteration's light vertices within the radius (a photon-density estimate with a
+/// constant kernel over the disc pi r^2, of which N light paths each count 1 / N), each
+/// weighted against every connection and merge that could have made its path (Georgiev et
+/// al. 2012, section 4.2).
+fn merge(cx: Context, camera: &[PathVertex], photons: &Photons) -> Spectrum {
+    let mut total = Spectrum::ZERO;
+    for t in 2..=camera.len() {
+        let z = &camera[t - 1];
+        let Some(zs) = z.surface.as_ref().filter(|_| z.mergeable()) else { continue };
+        let wo = z.towards(&camera[t - 2]);
+        let lo = zs.frame.to_local(wo);
+        let mut sum = Spectrum::ZERO;
+        photons.near(z.p, |i| {
+            let y = &photons.vertices[i];
+            let s = y.index as usize + 1;
+            if s + t - 3 > cx.settings.max_depth as usize {
+                return;
+            }
+            let prev = &photons.vertices[i - 1];
+            let wi = if prev.infinite { prev.p } else { (prev.p - y.p).normalize_or_zero() };
+            let li = zs.frame.to_local(wi);
+            if li.z == 0.0 {
+                return;
+            }
+            // The BSDF without its cosine: the light vertices' density already counts it.
+            let f = zs.bsdf.eval(lo, li, TransportMode::Radiance) / li.z.abs();
+            if f.is_black() {
+                return;
+            }
+            let weight = merge_weight(cx, (camera, t), &photons.vertices[i + 1 - s..=i], wi, photons.eta);
+            sum += f * y.beta * weight;
+        });
+        total += z.beta * sum / photons.eta;
+    }
+    if total.is_finite() { total } else { Spectrum::ZERO }
+}
+
+/// The power-heuristic weight of merging camera vertex t - 1 with light vertex s - 1 (the
+/// end of `light`, reached along `wi` from its predecessor): the merge's density against
+/// the connection (s, t - 1) that ends the light subpath at the merged point, and every
+/// other strategy's by the ratios along the path.
+fn merge_weight(cx: Context, (camera, t): (&[PathVertex], usize), light: &[LightVertex], wi: Vec3, eta: f32) -> f32 {
+    let s = light.len();
+    let (z, before) = (&camera[t - 1], &camera[t - 2]);
+    let Some(zs) = z.surface.as_ref() else { return 0.0 };
+    let mut cam = [Densities::default(); MAX_VERTICES];
+    let mut lig = [Densities::default(); MAX_VERTICES];
+    for (d, v) in cam.iter_mut().zip(&camera[..t - 1]) {
+        *d = v.densities();
+    }
+    for (d, v) in lig.iter_mut().zip(light) {
+        *d = v.densities;
+    }
+    let wo = z.towards(before);
+    // The merged vertex, reached from the light side, sampling the camera's previous vertex;
+    // the camera's density of the merged vertex; the merged vertex sampling the light's.
+    cam[t - 2].rev = z.convert(surface_pdf(cx, zs, wi, wo), before);
+    lig[s - 1].rev = z.pdf_fwd;
+    if s >= 2 {
+        let (prev, pdf) = (&light[s - 2], surface_pdf(cx, zs, wo, wi));
+        lig[s - 2].rev = if prev.infinite { pdf } else { area_density(pdf, light[s - 1].p, prev.p, prev.n) };
+    }
+    let connection = if cam[t - 2].delta { 0.0 } else { 1.0 };
+    let sum = strategy_sum(&cam[..t - 1], &lig[..s], light[0].delta_light, eta);
+    let m = remap0(lig[s - 1].rev) / remap0(lig[s - 1].fwd) * remap0(lig[s - 1].fwd) * eta;
+    let w = m * m / (connection + sum);
+    if w.is_finite() { w } else { 0.0 }
+}
+
+/// A solid-angle density `pdf` at `from` converted to one per unit area at `p`, of normal `n`
+/// (zero off surfaces).
+fn area_density(pdf: f32, from: Vec3, p: Vec3, n: Vec3) -> f32 {
+    let w = p - from;
+    let dist2 = w.length_squared();
+    if dist2 == 0.0 {
+        return 0.0;
+    }
+    let cos = if n == Vec3::ZERO { 1.0 } else { n.dot(w / dist2.sqrt()).abs() };
+    pdf * cos / dist2
 }
 
 /// The camera subpath: the camera vertex, then a random walk from the camera ray.
@@ -176,7 +282,7 @@ fn camera_subpath<'a>(
 }
 
 /// The light subpath: a light chosen by power, a ray leaving it, then a random walk.
-fn light_subpath<'a>(
+pub(super) fn light_subpath<'a>(
     cx: Context<'a>,
     sampler: &mut Sampler,
     max: usize,
@@ -441,7 +547,7 @@ fn connect(
     view: &View,
     (light, s): (&[PathVertex], usize),
     (camera, t): (&[PathVertex], usize),
-    sampler: &mut Sampler,
+    (sampler, eta): (&mut Sampler, f32),
     out: &mut PathOutput,
 ) -> Option<(Spectrum, Option<Vec2>)> {
     let pt = camera[t - 1];
@@ -527,7 +633,7 @@ fn connect(
     if l.is_black() || !l.is_finite() {
         return None;
     }
-    let weight = mis_weight(cx, view, (light, s), (camera, t), sampled);
+    let weight = mis_weight(cx, view, (light, s), (camera, t), sampled, eta);
     Some((l * weight, film))
 }
 
@@ -571,84 +677,173 @@ fn remap0(x: f32) -> f32 {
 /// The power-heuristic weight of strategy (s, t) (pbrt-v4's `MISWeight`, squared ratios):
 /// the densities of the connection's end vertices and their predecessors are recomputed
 /// for the connection, and each other strategy's density is reached by the ratios of
-/// reverse to forward densities along the path.
+/// reverse to forward densities along the path; with vertex merging (`eta` > 0) the merges
+/// at every vertex count too.
 fn mis_weight(
     cx: Context,
     view: &View,
     (light, s): (&[PathVertex], usize),
     (camera, t): (&[PathVertex], usize),
     sampled: Option<PathVertex>,
+    eta: f32,
 ) -> f32 {
     if s + t == 2 {
         return 1.0;
     }
-    // The densities this strategy sees, per vertex: (forward, reverse, delta).
-    let mut cam: [(f32, f32, bool); MAX_VERTICES] = [(0.0, 0.0, false); MAX_VERTICES];
-    let mut lig: [(f32, f32, bool); MAX_VERTICES] = [(0.0, 0.0, false); MAX_VERTICES];
-    for (i, v) in camera[..t].iter().enumerate() {
-        cam[i] = (v.pdf_fwd, v.pdf_rev, v.delta);
+    // The densities this strategy sees, per vertex.
+    let mut cam = [Densities::default(); MAX_VERTICES];
+    let mut lig = [Densities::default(); MAX_VERTICES];
+    for (d, v) in cam.iter_mut().zip(&camera[..t]) {
+        *d = v.densities();
     }
-    for (i, v) in light[..s].iter().enumerate() {
-        lig[i] = (v.pdf_fwd, v.pdf_rev, v.delta);
+    for (d, v) in lig.iter_mut().zip(&light[..s]) {
+        *d = v.densities();
     }
     let mut qs = (s > 0).then(|| light[s - 1]);
     let mut pt = camera[t - 1];
     if s == 1 {
         qs = sampled;
         if let Some(q) = qs {
-            lig[0] = (q.pdf_fwd, q.pdf_rev, false);
+            lig[0] = Densities { delta: false, ..q.densities() };
         }
     } else if t == 1 {
         pt = sampled.unwrap_or(pt);
-        cam[0] = (pt.pdf_fwd, pt.pdf_rev, false);
+        cam[0] = Densities { delta: false, ..pt.densities() };
     }
     // The connection's ends are not deltas.
-    cam[t - 1].2 = false;
+    cam[t - 1].delta = false;
     if s > 0 {
-        lig[s - 1].2 = false;
+        lig[s - 1].delta = false;
     }
     // pt's reverse density: qs sampling pt (or the light subpath starting at pt).
-    cam[t - 1].1 = match qs {
+    cam[t - 1].rev = match qs {
         Some(q) => density(cx, view, &q, if s > 1 { Some(&light[s - 2]) } else { None }, &pt),
         None => light_origin_density(cx, &pt),
     };
     // pt's predecessor, from pt.
     if t > 1 {
-        cam[t - 2].1 = match qs {
+        cam[t - 2].rev = match qs {
             Some(q) => density(cx, view, &pt, Some(&q), &camera[t - 2]),
             None => light_density(cx, &pt, &camera[t - 2]),
         };
     }
     if let Some(q) = qs {
         // qs's reverse density: pt sampling qs; and qs's predecessor, from qs.
-        lig[s - 1].1 = density(cx, view, &pt, if t > 1 { Some(&camera[t - 2]) } else { None }, &q);
+        lig[s - 1].rev = density(cx, view, &pt, if t > 1 { Some(&camera[t - 2]) } else { None }, &q);
         if s > 1 {
-            lig[s - 2].1 = density(cx, view, &q, Some(&pt), &light[s - 2]);
+            lig[s - 2].rev = density(cx, view, &q, Some(&pt), &light[s - 2]);
         }
     }
+    let origin_delta = match (s, qs) {
+        (0, _) => false,
+        (1, Some(q)) => q.is_delta_light(),
+        _ => light[0].is_delta_light(),
+    };
+    let w = 1.0 / (1.0 + strategy_sum(&cam[..t], &lig[..s], origin_delta, eta));
+    if w.is_finite() { w } else { 0.0 }
+}
+
+/// The sum, over every strategy but the one whose subpaths end at `cam` and `lig`'s last
+/// vertices, of the squared ratio of its density to that one's: each connection (s', t')
+/// by the products of reverse over forward densities walking the connection along the
+/// path (pbrt-v4's `MISWeight`), and, where `eta` > 0, each merge at a vertex with a
+/// non-delta lobe (past the light and the camera): the connection whose camera subpath ends
+/// there, times the light subpath's density of the vertex and eta (Georgiev et al. 2012,
+/// eq. 11). `origin_delta`: the light subpath starts on a delta light, which no camera
+/// subpath can reach.
+fn strategy_sum(cam: &[Densities], lig: &[Densities], origin_delta: bool, eta: f32) -> f32 {
     let mut sum = 0.0f32;
     let mut ri = 1.0f32;
-    for i in (1..t).rev() {
-        ri *= remap0(cam[i].1) / remap0(cam[i].0);
-        if !cam[i].2 && !cam[i - 1].2 {
+    for i in (1..cam.len()).rev() {
+        if eta > 0.0 && cam[i].merge {
+            let m = ri * remap0(cam[i].rev) * eta;
+            sum += m * m;
+        }
+        ri *= remap0(cam[i].rev) / remap0(cam[i].fwd);
+        if !cam[i].delta && !cam[i - 1].delta {
             sum += ri * ri;
         }
     }
     ri = 1.0;
-    for i in (0..s).rev() {
-        ri *= remap0(lig[i].1) / remap0(lig[i].0);
-        let delta_before = if i > 0 {
-            lig[i - 1].2
-        } else {
-            match (s, qs) {
-                (1, Some(q)) => q.is_delta_light(),
-                _ => light[0].is_delta_light(),
-            }
-        };
-        if !lig[i].2 && !delta_before {
+    for i in (0..lig.len()).rev() {
+        ri *= remap0(lig[i].rev) / remap0(lig[i].fwd);
+        if eta > 0.0 && i > 0 && lig[i].merge {
+            let m = ri * remap0(lig[i].fwd) * eta;
+            sum += m * m;
+        }
+        let delta_before = if i > 0 { lig[i - 1].delta } else { origin_delta };
+        if !lig[i].delta && !delta_before {
             sum += ri * ri;
         }
     }
-    let w = 1.0 / (1.0 + sum);
-    if w.is_finite() { w } else { 0.0 }
+    sum
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The weights of every connection and merge that can make one path, computed as the
+    /// integrator computes them, each with itself as the reference.
+    fn weights(pl: &[f32], pc: &[f32], delta: &[bool], origin_delta: bool, eta: f32) -> Vec<f32> {
+        let n = pl.len();
+        let merge = |i: usize| i >= 1 && i + 1 < n && !delta[i];
+        let light = |i: usize| Densities { fwd: pl[i], rev: pc[i], delta: delta[i], merge: merge(i) };
+        let camera = |i: usize| Densities { fwd: pc[i], rev: pl[i], delta: delta[i], merge: merge(i) };
+        // Subpaths of strategy s: the light's x_0..x_{s-1}, the camera's x_{n-1}..x_s.
+        let split = |s: usize| -> (Vec<Densities>, Vec<Densities>) {
+            ((0..s).map(light).collect(), (s..n).rev().map(camera).collect())
+        };
+        let mut w = Vec::new();
+        // Connections (s, t), t >= 1, their ends not deltas (s = 0: the light is hit).
+        for s in 0..n {
+            let ends_ok = !delta[s] && if s == 0 { !origin_delta } else { !delta[s - 1] };
+            if !ends_ok {
+                continue;
+            }
+            let (mut lig, mut cam) = split(s);
+            if let Some(l) = lig.last_mut() {
+                l.delta = false;
+            }
+            cam.last_mut().unwrap().delta = false;
+            w.push(1.0 / (1.0 + strategy_sum(&cam, &lig, origin_delta, eta)));
+        }
+        // Merges at x_j: against the connection whose light subpath ends there.
+        for j in (1..n - 1).filter(|&j| eta > 0.0 && merge(j)) {
+            let (lig, cam) = split(j + 1);
+            let connection = if cam.last().unwrap().delta { 0.0 } else { 1.0 };
+            let m = remap0(pc[j]) / remap0(pl[j]) * remap0(pl[j]) * eta;
+            w.push(m * m / (connection + strategy_sum(&cam, &lig, origin_delta, eta)));
+        }
+        w
+    }
+
+    #[test]
+    fn the_weights_of_every_strategy_of_a_path_sum_to_one() {
+        let mut x = 7u64;
+        let mut next = || {
+            x = x.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (x >> 40) as f32 / (1u64 << 24) as f32
+        };
+        for case in 0..2000 {
+            let n = 3 + case % 6;
+            let delta: Vec<bool> = (0..n).map(|i| i > 0 && i + 1 < n && next() < 0.3).collect();
+            let origin_delta = next() < 0.3;
+            let mut pl: Vec<f32> = (0..n).map(|_| 0.05 + 4.0 * next()).collect();
+            let mut pc: Vec<f32> = (0..n).map(|_| 0.05 + 4.0 * next()).collect();
+            // A delta lobe's neighbours are sampled through it with no finite density.
+            for i in (1..n - 1).filter(|&i| delta[i]) {
+                pl[i + 1] = 0.0;
+                pc[i - 1] = 0.0;
+            }
+            for eta in [0.0, 0.01 + 5.0 * next()] {
+                let w = weights(&pl, &pc, &delta, origin_delta, eta);
+                let sum: f32 = w.iter().sum();
+                if w.is_empty() {
+                    continue;
+                }
+                assert!((sum - 1.0).abs() < 1e-4, "case {case}, eta {eta}: weights {w:?} sum to {sum}");
+            }
+        }
+    }
 }

@@ -13,9 +13,11 @@
 
 use super::Context;
 use super::aov::Aov;
+use super::bdpt::Merging;
 use super::edges::{EmitterEdges, PixelEdges};
 use super::media::Media;
 use super::nan::{NanCause, check};
+use super::photons::Photons;
 use super::settings::{Integrator, PixelSampling, Settings};
 use crate::math::sampler::{PixelSequence, Sampler, hash3};
 use crate::scene::{
@@ -113,6 +115,8 @@ pub type Splat<'a> = &'a mut dyn FnMut(Vec2, Spectrum);
 
 /// Sample `index` of `pixel`; with `aovs`, also its albedo and normal for the denoiser (the
 /// radiance is the same bits either way). Contributions to other pixels go to `splat`.
+/// Vertex connection and merging, lone samples without an iteration's light vertices, is
+/// bidirectional path tracing with its light subpaths.
 pub fn sample_pixel(
     scene: &Scene,
     settings: &Settings,
@@ -123,11 +127,13 @@ pub fn sample_pixel(
     splat: Splat,
 ) -> PathOutput {
     let pixel = Pixel { at: pixel, sequence: &sequence(settings, pixel), edges: edges(settings, view, pixel) };
-    sample(Context { scene, settings }, view, pixel, (index, aovs), splat)
+    sample(Context { scene, settings }, view, pixel, (index, aovs), (splat, None))
 }
 
 /// Samples `indices` of `pixel`, each handed to `add` with its index: the bits of
-/// `sample_pixel` for each, with what the pixel's samples share computed once.
+/// `sample_pixel` for each, with what the pixel's samples share computed once; vertex
+/// connection and merging merges with `photons`, the light vertices of the iteration
+/// `indices` must then hold alone.
 #[allow(clippy::too_many_arguments)]
 pub fn sample_pixels(
     scene: &Scene,
@@ -137,12 +143,12 @@ pub fn sample_pixels(
     indices: Range<u64>,
     aovs: bool,
     mut add: impl FnMut(u64, PathOutput),
-    splat: Splat,
+    (splat, photons): (Splat, Option<&Photons>),
 ) {
     let (sequence, edges) = (sequence(settings, pixel), edges(settings, view, pixel));
     let (cx, pixel) = (Context { scene, settings }, Pixel { at: pixel, sequence: &sequence, edges });
     for i in indices {
-        add(i, sample(cx, view, pixel, (i, aovs), &mut *splat));
+        add(i, sample(cx, view, pixel, (i, aovs), (&mut *splat, photons)));
     }
 }
 
@@ -173,7 +179,7 @@ fn sample(
     view: &View,
     Pixel { at: pixel, sequence, edges }: Pixel,
     (index, aovs): (u64, bool),
-    splat: Splat,
+    (splat, photons): (Splat, Option<&Photons>),
 ) -> PathOutput {
     let Context { scene, settings } = cx;
     let mut sampler = sequence.sampler(index);
@@ -190,7 +196,11 @@ fn sample(
         (Integrator::Path, false) => super::path::radiance::<false>(cx, ray, media, &mut sampler, &mut wl, aovs),
         (Integrator::Path, true) => super::path::radiance::<true>(cx, ray, media, &mut sampler, &mut wl, aovs),
         (Integrator::Distribution, _) => super::drt::radiance(cx, ray, media, &mut sampler, aovs),
-        (Integrator::Bdpt, _) => super::bdpt::radiance(cx, view, ray, &mut sampler, splat),
+        (Integrator::Bdpt, _) => super::bdpt::radiance(cx, view, ray, &mut sampler, splat, None),
+        (Integrator::Vcm, _) => {
+            let merging = photons.map(|photons| Merging { photons, pixel, index });
+            super::bdpt::radiance(cx, view, ray, &mut sampler, splat, merging)
+        }
     };
     out.radiance = wl.to_rgb(out.radiance);
     if !edges.is_empty() {

@@ -1,5 +1,7 @@
-//! Estimators of the rendering equation. The path tracer (`path`) and the distribution
-//! ray tracer (`drt`) are leaves built from shared parts: the pixel sample (`kernel`), the
+//! Estimators of the rendering equation. The path tracer (`path`), the distribution ray
+//! tracer (`drt`) and bidirectional path tracing with vertex connection and merging
+//! (`bdpt`, whose merging finds the light vertices of `photons`) are leaves built from
+//! shared parts: the pixel sample (`kernel`), the
 //! surface vertex (`vertex`), direction sampling (`scatter`), next-event estimation
 //! (`direct`), light found by BSDF rays (`emission`), the control variate for the edges of
 //! emitters the camera sees (`edges`), MIS weights (`mis`), the volumes a
@@ -16,6 +18,7 @@ pub mod media;
 mod mis;
 pub mod nan;
 mod path;
+pub mod photons;
 pub mod scatter;
 pub mod settings;
 mod vertex;

@@ -43,6 +43,7 @@ crate::choice_enum! {
         Path = "path": "path tracing, one direction per bounce",
         Distribution = "distribution": "distribution ray tracing, branching at every hit",
         Bdpt = "bdpt": "bidirectional path tracing: camera and light subpaths joined every way, by MIS",
+        Vcm = "vcm": "vertex connection and merging: BDPT plus merging with every light path's vertices, by MIS",
     }
 }
 
@@ -96,7 +97,7 @@ crate::params! {
         width: u32 = 512, ["width", "width", Image, int(1, MAX_SIDE), always],
         /// Image height in pixels (the viewer follows its window unless the size is fixed).
         height: u32 = 512, ["height", "height", Image, int(1, MAX_SIDE), always],
-        /// The estimator: path tracing, distribution ray tracing (branching at every hit), or bidirectional path tracing.
+        /// The estimator: path tracing, distribution ray tracing (branching at every hit), bidirectional path tracing, or vertex connection and merging.
         integrator: Integrator = Integrator::Path, ["integrator", "integrator", Estimator, Domain::Choice(Integrator::CHOICES), always],
         /// Directions per hit for distribution ray tracing.
         branching: u32 = 8, ["branching", "directions per hit", Estimator, int(1, 4096), distribution],
@@ -104,6 +105,8 @@ crate::params! {
         directions: Directions = Directions::Stratified, ["directions", "direction scheme", Estimator, Domain::Choice(Directions::CHOICES), distribution],
         /// Let distribution ray tracing exceed its budget of rays per sample.
         allow_expensive: bool = false, ["allow-expensive", "render anyway (over the ray budget)", Estimator, Domain::Switch, |s| distribution(s) && s.rays_per_sample_bound() > DRT_RAY_BUDGET],
+        /// Vertex merging's radius at the first iteration, as a share of the scene's bounding-sphere radius; it shrinks as i^-1/8 over iterations i (Knaus and Zwicker's alpha = 3/4).
+        vcm_radius: f32 = 0.002, ["vcm-radius", "merging radius (share of the scene's)", Estimator, Domain::Float { min: 1e-6, max: 1.0, optional: false }, |s| s.integrator == Integrator::Vcm],
         /// Draw directions in proportion to the BSDF (on) or uniformly over the hemisphere (off).
         importance_sampling: bool = true, ["importance", "importance sampling", Estimator, Domain::Switch, always],
         /// Transport in RGB or at sampled wavelengths (auto: spectral for dispersive scenes).
@@ -154,6 +157,14 @@ impl fmt::Display for InvalidSettings {
 }
 
 impl std::error::Error for InvalidSettings {}
+
+impl Integrator {
+    /// Whether light subpaths add to other pixels than their sample's (light tracing), so
+    /// that the film takes splats and a pixel's noise cannot stop its samples.
+    pub fn is_bidirectional(self) -> bool {
+        matches!(self, Integrator::Bdpt | Integrator::Vcm)
+    }
+}
 
 impl Settings {
     /// Whether paths should carry wavelengths, in a scene with (`dispersion`) or without a

@@ -8,7 +8,9 @@
 
 use crate::film::adaptive::{self, ErrorEstimate, LUMINANCE, LUMINANCE_FLOOR};
 use crate::film::{AovImages, Film, TILE_SIZE, Tile, splat::Splats, window::Window};
-use crate::integrator::{Integrator, PathOutput, Settings, View, sample_pixels, settings::InvalidSettings};
+use crate::integrator::kernel::Splat;
+use crate::integrator::photons::{LightVertex, Photons};
+use crate::integrator::{Context, Integrator, PathOutput, Settings, View, sample_pixels, settings::InvalidSettings};
 use crate::memory::{Limits, format_bytes};
 use crate::scene::{Scene, camera::Camera};
 use crate::spectrum::Spectrum;
@@ -393,11 +395,16 @@ fn check_job(job: &Job, limits: &Limits) -> Result<(), SessionError> {
             job.scene.name
         ))));
     }
-    if job.settings.integrator == Integrator::Bdpt {
+    if job.settings.integrator.is_bidirectional() {
         let s = &job.settings;
+        let name = if s.integrator == Integrator::Vcm {
+            "vertex connection and merging"
+        } else {
+            "bidirectional path tracing"
+        };
         let refuse = |why: &str| {
             Err(SessionError::Settings(InvalidSettings(format!(
-                "{}: bidirectional path tracing {why}; use --integrator path",
+                "{}: {name} {why}; use --integrator path",
                 job.scene.name
             ))))
         };
@@ -436,7 +443,12 @@ fn check_job(job: &Job, limits: &Limits) -> Result<(), SessionError> {
     let window = job.window();
     let (width, height) = (window.width(), window.height());
     let aovs = if job.aovs { aov_bytes(width, height) } else { 0 };
-    let bytes = film_bytes(width, height) + aovs + if threshold { threshold_bytes(width, height) } else { 0 };
+    let merging = if job.settings.integrator == Integrator::Vcm {
+        LightVertex::bytes(width, height, job.settings.max_depth)
+    } else {
+        0
+    };
+    let bytes = film_bytes(width, height) + aovs + merging + if threshold { threshold_bytes(width, height) } else { 0 };
     if bytes > limits.memory {
         return Err(SessionError::TooLarge { width, height, bytes, limit: limits.memory });
     }
@@ -478,7 +490,7 @@ impl Active {
         }
         Self {
             film: if s.noise_threshold.is_some() { film.with_threshold() } else { film },
-            splats: (s.integrator == Integrator::Bdpt).then(|| Splats::new(s.width, s.height)),
+            splats: s.integrator.is_bidirectional().then(|| Splats::new(s.width, s.height)),
             view: View::new(&job.scene, &job.camera, s.width, s.height),
             job,
             generation,
@@ -562,6 +574,7 @@ fn coordinate(shared: &Shared, pool: &rayon::ThreadPool) {
 /// Everything a tile needs to render its share of one pass.
 struct Pass<'a> {
     splats: Option<&'a Splats>,
+    photons: Option<&'a Photons>,
     scene: &'a Scene,
     settings: &'a Settings,
     view: &'a View,
@@ -626,7 +639,8 @@ impl Pass<'_> {
                         }
                     };
                     let (range, aovs) = (start..stop, self.aovs);
-                    sample_pixels(self.scene, self.settings, self.view, pixel, range, aovs, add, &mut splat);
+                    let beyond = (&mut splat as Splat, self.photons);
+                    sample_pixels(self.scene, self.settings, self.view, pixel, range, aovs, add, beyond);
                     samples += stop - start;
                 }
             }
@@ -663,21 +677,37 @@ fn run_pass(
         a.timed_out = true;
         return true;
     }
+    let first = a.job.settings.first_sample as u64 + a.spp as u64;
     let pass = Pass {
         splats: a.splats.as_ref(),
+        photons: None,
         scene: &a.job.scene,
         settings: &a.job.settings,
         view: &a.view,
-        first: a.job.settings.first_sample as u64 + a.spp as u64,
+        first,
         count,
         current: &shared.generation,
         generation: a.generation,
         aovs: a.job.aovs,
     };
     let start = Instant::now();
-    let (samples, traced) = pool.install(|| {
-        a.film.tiles.par_iter_mut().map(|tile| pass.render_tile(tile)).reduce(|| (0, 0), |x, y| (x.0 + y.0, x.1 + y.1))
-    });
+    let (mut samples, mut traced) = (0, 0);
+    if a.job.settings.integrator == Integrator::Vcm {
+        // An iteration at a time: its light subpaths (one per pixel), then its camera paths.
+        let cx = Context { scene: &a.job.scene, settings: &a.job.settings };
+        let size = (a.job.settings.width, a.job.settings.height);
+        for index in first..first + count as u64 {
+            let photons = pool.install(|| Photons::trace(cx, size, index, &mut traced));
+            if pass.stale() {
+                return false;
+            }
+            let iteration = Pass { photons: Some(&photons), first: index, count: 1, ..pass };
+            let (n, rays) = render_tiles(pool, &mut a.film, &iteration);
+            (samples, traced) = (samples + n, traced + rays);
+        }
+    } else {
+        (samples, traced) = render_tiles(pool, &mut a.film, &pass);
+    }
     if pass.stale() {
         return false;
     }
@@ -689,6 +719,13 @@ fn run_pass(
     a.traced += traced;
     a.pass_spp = next_pass(count, pass.first + count as u64, took, pace);
     true
+}
+
+/// Renders `pass` on every tile of `film`; returns (samples, rays).
+fn render_tiles(pool: &rayon::ThreadPool, film: &mut Film, pass: &Pass) -> (u64, u64) {
+    pool.install(|| {
+        film.tiles.par_iter_mut().map(|tile| pass.render_tile(tile)).reduce(|| (0, 0), |x, y| (x.0 + y.0, x.1 + y.1))
+    })
 }
 
 /// How long a pass should take at least where snapshots are watched (the viewer's refresh)
