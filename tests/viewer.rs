@@ -331,6 +331,12 @@ fn bidirectional_path_tracing_runs_live_in_the_window_as_it_renders_headless() {
     window_and_headless_agree("e2e-bdpt", &["--integrator", "bdpt"]);
 }
 
+#[test]
+fn vertex_connection_and_merging_runs_live_in_the_window_as_it_renders_headless() {
+    // Each of its passes traces an iteration's light subpaths before its camera paths.
+    window_and_headless_agree("e2e-vcm", &["--integrator", "vcm"]);
+}
+
 /// The viewer under Xvfb, with `extra` settings, saves a screenshot whose EXR is the
 /// headless render's, bit for bit.
 fn window_and_headless_agree(name: &str, extra: &[&str]) {
