@@ -195,6 +195,32 @@ fn vcm_renders_the_same_bits_on_any_number_of_threads() {
 }
 
 #[test]
+fn bidirectional_renders_give_the_denoiser_the_path_tracers_albedo_and_normal() {
+    // On the Cornell box's diffuse walls the first vertex of a camera ray decides both, and
+    // every estimator starts from the same camera rays.
+    let scene = Arc::new(Scene::build(builtin::cornell_box()));
+    let camera = scene.default_camera(1.0);
+    let aovs = |integrator| {
+        let job = lucent::render::Job {
+            scene: Arc::clone(&scene),
+            camera,
+            settings: settings(integrator, 4, 5),
+            window: None,
+            aovs: true,
+        };
+        let snap = lucent::render::RenderSession::new(job, None).expect("valid").wait_until_done();
+        snap.aovs.clone().expect("AOVs recorded")
+    };
+    let path = aovs(Integrator::Path);
+    assert!(path.albedo.iter().any(|a| a.max_element() > 0.1), "the path tracer records an albedo");
+    for integrator in [Integrator::Bdpt, Integrator::Vcm] {
+        let other = aovs(integrator);
+        assert_eq!(other.albedo, path.albedo, "{integrator:?}: albedo");
+        assert_eq!(other.normal, path.normal, "{integrator:?}: normal");
+    }
+}
+
+#[test]
 fn bdpt_renders_the_same_bits_on_any_number_of_threads() {
     let scene = Arc::new(Scene::build(common::load("cornell-box-glass.gltf")));
     let camera = scene.default_camera(1.0);

@@ -19,6 +19,7 @@
 //! other side, built for it.
 
 use super::Context;
+use super::aov::AovTrace;
 use super::direct::shadow;
 use super::kernel::{PathOutput, View};
 use super::media::{Media, transmittance};
@@ -149,14 +150,15 @@ pub fn radiance(
     view: &View,
     ray: Ray,
     sampler: &mut Sampler,
-    splat: &mut dyn FnMut(Vec2, Spectrum),
+    (splat, aovs): (&mut dyn FnMut(Vec2, Spectrum), bool),
     merging: Option<Merging>,
 ) -> PathOutput {
     let mut out = PathOutput::default();
     let max = (cx.settings.max_depth as usize + 2).min(MAX_VERTICES);
     let mut camera: Vec<PathVertex> = Vec::with_capacity(max);
     let mut light: Vec<PathVertex> = Vec::with_capacity(max);
-    camera_subpath(cx, view, ray, sampler, max, &mut camera, &mut out);
+    let mut aov = AovTrace::new(aovs);
+    camera_subpath(cx, view, ray, sampler, max, &mut camera, (&mut out, &mut aov));
     match merging {
         Some(m) => light_subpath(cx, &mut light_sampler(cx, m.pixel, m.index), max - 1, &mut light, &mut out),
         None => light_subpath(cx, sampler, max - 1, &mut light, &mut out),
@@ -181,6 +183,7 @@ pub fn radiance(
         total += merge(cx, &camera, m.photons);
     }
     out.radiance = total;
+    out.aov = aov.finish();
     out
 }
 
@@ -274,11 +277,12 @@ fn camera_subpath<'a>(
     sampler: &mut Sampler,
     max: usize,
     path: &mut Vec<PathVertex<'a>>,
-    out: &mut PathOutput,
+    (out, aov): (&mut PathOutput, &mut AovTrace),
 ) {
     let pdf_dir = view.rays.pdf_dir(ray.d);
     path.push(PathVertex::end(Kind::Camera, ray.o, Vec3::ZERO, Spectrum::ONE, TransportMode::Radiance));
-    walk(cx, (ray, view.media), Spectrum::ONE, pdf_dir, TransportMode::Radiance, sampler, max, path, out);
+    let start = (ray, view.media);
+    walk(cx, start, Spectrum::ONE, pdf_dir, TransportMode::Radiance, sampler, max, path, (out, aov));
 }
 
 /// The light subpath: a light chosen by power, a ray leaving it, then a random walk.
@@ -306,7 +310,8 @@ pub(super) fn light_subpath<'a>(
     let beta = le.radiance * (cos / (pmf * le.pdf_pos * le.pdf_dir));
     let start = path.len();
     // Light paths start outside every volume.
-    walk(cx, (le.ray, Media::default()), beta, le.pdf_dir, TransportMode::Importance, sampler, max, path, out);
+    let (from, aov) = ((le.ray, Media::default()), &mut AovTrace::off());
+    walk(cx, from, beta, le.pdf_dir, TransportMode::Importance, sampler, max, path, (out, aov));
     // From light at infinity the first surface's density is the disc's, projected.
     if infinite && path.len() > start {
         let first = &mut path[start];
@@ -326,7 +331,7 @@ fn walk<'a>(
     sampler: &mut Sampler,
     max: usize,
     path: &mut Vec<PathVertex<'a>>,
-    out: &mut PathOutput,
+    (out, aov): (&mut PathOutput, &mut AovTrace),
 ) {
     let Context { scene, settings } = cx;
     let mut travelled = 0.0f32;
@@ -361,6 +366,7 @@ fn walk<'a>(
         }
         let surface: Surface = scene.surface(&hit);
         let vertex = Vertex::new(cx, surface, ray.d, media, wl);
+        aov.surface(&vertex);
         let n = if vertex.front { surface.ng } else { -surface.ng };
         let emissive = vertex.front && scene.materials[surface.material as usize].is_emissive();
         let mut v = PathVertex {
@@ -390,6 +396,7 @@ fn walk<'a>(
             path.push(v);
             return;
         };
+        aov.delta(bs.weight, bs.eta);
         if bs.flags.contains(LobeFlags::NULL) {
             crossings += 1;
             if crossings > 64 {
@@ -754,8 +761,10 @@ fn mis_weight(
 fn strategy_sum(cam: &[Densities], lig: &[Densities], origin_delta: bool, eta: f32) -> f32 {
     let mut sum = 0.0f32;
     let mut ri = 1.0f32;
+    // Without a light subpath the camera's last vertex is the light's, where nothing merges.
+    let last = if lig.is_empty() { cam.len() - 1 } else { cam.len() };
     for i in (1..cam.len()).rev() {
-        if eta > 0.0 && cam[i].merge {
+        if eta > 0.0 && cam[i].merge && i < last {
             let m = ri * remap0(cam[i].rev) * eta;
             sum += m * m;
         }
@@ -787,7 +796,9 @@ mod tests {
     /// integrator computes them, each with itself as the reference.
     fn weights(pl: &[f32], pc: &[f32], delta: &[bool], origin_delta: bool, eta: f32) -> Vec<f32> {
         let n = pl.len();
-        let merge = |i: usize| i >= 1 && i + 1 < n && !delta[i];
+        // As vertices flag themselves: every surface vertex without a delta lobe, the light's
+        // (an emitting surface) included; the camera's not.
+        let merge = |i: usize| i + 1 < n && !delta[i];
         let light = |i: usize| Densities { fwd: pl[i], rev: pc[i], delta: delta[i], merge: merge(i) };
         let camera = |i: usize| Densities { fwd: pc[i], rev: pl[i], delta: delta[i], merge: merge(i) };
         // Subpaths of strategy s: the light's x_0..x_{s-1}, the camera's x_{n-1}..x_s.

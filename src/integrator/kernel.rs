@@ -196,10 +196,10 @@ fn sample(
         (Integrator::Path, false) => super::path::radiance::<false>(cx, ray, media, &mut sampler, &mut wl, aovs),
         (Integrator::Path, true) => super::path::radiance::<true>(cx, ray, media, &mut sampler, &mut wl, aovs),
         (Integrator::Distribution, _) => super::drt::radiance(cx, ray, media, &mut sampler, aovs),
-        (Integrator::Bdpt, _) => super::bdpt::radiance(cx, view, ray, &mut sampler, splat, None),
+        (Integrator::Bdpt, _) => super::bdpt::radiance(cx, view, ray, &mut sampler, (splat, aovs), None),
         (Integrator::Vcm, _) => {
             let merging = photons.map(|photons| Merging { photons, pixel, index });
-            super::bdpt::radiance(cx, view, ray, &mut sampler, splat, merging)
+            super::bdpt::radiance(cx, view, ray, &mut sampler, (splat, aovs), merging)
         }
     };
     out.radiance = wl.to_rgb(out.radiance);

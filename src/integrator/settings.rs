@@ -84,6 +84,13 @@ fn always(_: &Settings) -> bool {
     true
 }
 
+/// Whether the estimator follows paths from the camera alone, where the importance and
+/// light sampling switches apply (bidirectional estimators sample every BSDF by importance,
+/// and sampling a light is one of their strategies, s = 1).
+fn unidirectional(s: &Settings) -> bool {
+    !s.integrator.is_bidirectional()
+}
+
 fn distribution(s: &Settings) -> bool {
     s.integrator == Integrator::Distribution
 }
@@ -108,11 +115,11 @@ crate::params! {
         /// Vertex merging's radius at the first iteration, as a share of the scene's bounding-sphere radius; it shrinks as i^-1/8 over iterations i (Knaus and Zwicker's alpha = 3/4).
         vcm_radius: f32 = 0.002, ["vcm-radius", "merging radius (share of the scene's)", Estimator, Domain::Float { min: 1e-6, max: 1.0, optional: false }, |s| s.integrator == Integrator::Vcm],
         /// Draw directions in proportion to the BSDF (on) or uniformly over the hemisphere (off).
-        importance_sampling: bool = true, ["importance", "importance sampling", Estimator, Domain::Switch, always],
+        importance_sampling: bool = true, ["importance", "importance sampling", Estimator, Domain::Switch, unidirectional],
         /// Transport in RGB or at sampled wavelengths (auto: spectral for dispersive scenes).
         spectral: Spectral = Spectral::Auto, ["spectral", "spectral", Estimator, Domain::Choice(Spectral::CHOICES), always],
         /// Light sampling strategy: none, explicit (no double counting), or MIS.
-        light_sampling: LightSampling = LightSampling::Mis, ["lights", "light sampling", Estimator, Domain::Choice(LightSampling::CHOICES), always],
+        light_sampling: LightSampling = LightSampling::Mis, ["lights", "light sampling", Estimator, Domain::Choice(LightSampling::CHOICES), unidirectional],
         /// Sequence of the sample numbers: independent, or Owen-scrambled Sobol.
         sampler: SamplerKind = SamplerKind::Sobol, ["sampler", "sampler", Estimator, Domain::Choice(SamplerKind::CHOICES), always],
         /// Maximum bounces, as pbrt-v4's maxdepth: 0 emitters only, 1 direct light.

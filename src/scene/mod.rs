@@ -241,6 +241,12 @@ impl Scene {
         })
     }
 
+    /// Whether a point, spot or directional light may shine through a transmitting
+    /// material: caustics that only bidirectional estimators find.
+    pub fn delta_lights_behind_glass(&self) -> bool {
+        !self.lights.is_empty() && self.materials.iter().any(|m| m.is_transmissive())
+    }
+
     /// Radius of a sphere around the scene's bounds.
     pub fn radius(&self) -> f32 {
         0.5 * (self.bounds.1 - self.bounds.0).length()

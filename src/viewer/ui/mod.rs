@@ -187,6 +187,9 @@ fn estimator(ui: &mut Ui, state: &mut ViewerState) {
     for p in Settings::table().iter().filter(|p| p.group == Group::Estimator) {
         param_widget(ui, p, s);
     }
+    if s.integrator == Integrator::Path && state.scene.delta_lights_behind_glass() {
+        ui.label("point, spot or sun light through glass: the caustics it casts need bdpt or vcm");
+    }
     if s.integrator == Integrator::Distribution {
         let rays = s.rays_per_sample_bound();
         ui.label(format!("up to {rays:.3e} rays per sample (branching^depth, budget {DRT_RAY_BUDGET:.0e})"));
