@@ -173,7 +173,7 @@ fn vcm_sees_the_caustic_through_the_glass_that_casts_it() {
     // Merging at the floor finds them.
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/docs/scenes/caustic.gltf");
     let scene = Arc::new(Scene::build(common::load(path)));
-    let camera = Camera::look_at(Vec3::new(0.0, 2.2, 0.4), Vec3::new(0.0, -1.0, 0.0), 0.35);
+    let camera = scene.file_camera(1).expect("the camera through the ball");
     let bdpt = independent_blocks(&scene, camera, settings(Integrator::Bdpt, 32, 8), 6);
     // A wider radius than the default: 32 iterations of 1,024 light subpaths are few.
     let wide = Settings { vcm_radius: 0.02, ..settings(Integrator::Vcm, 32, 8) };

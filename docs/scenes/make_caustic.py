@@ -2,7 +2,8 @@
 (KHR_lights_punctual) above it, in front of a grey wall. The path tracer cannot render the
 light the ball focuses onto the floor (its shadow rays stop at the glass, and its BSDF
 sampling never hits a point): under the ball it sees a shadow. Bidirectional path tracing's
-light subpaths refract through the ball and are seen where they land. Run from the
+light subpaths refract through the ball and are seen where they land. Its second camera
+looks down through the ball at that light, which only vertex merging finds. Run from the
 repository root: python3 docs/scenes/make_caustic.py"""
 import base64, json, math, struct
 
@@ -58,15 +59,20 @@ doc = {
     "extensionsUsed": ["KHR_materials_transmission", "KHR_materials_ior", "KHR_materials_volume", "KHR_lights_punctual"],
     "extensions": {"KHR_lights_punctual": {"lights": [{"name": "bulb", "type": "point", "intensity": 12.0}]}},
     "scene": 0,
-    "scenes": [{"nodes": [0, 1, 2, 3, 4]}],
+    "scenes": [{"nodes": [0, 1, 2, 3, 4, 5]}],
     "nodes": [
         {"name": "floor", "mesh": floor},
         {"name": "wall", "mesh": wall},
         {"name": "ball", "mesh": ball, "translation": [0.0, 0.9, 0.0]},
         {"name": "bulb", "translation": [0.3, 2.6, 0.2], "extensions": {"KHR_lights_punctual": {"light": 0}}},
+        # Looking down through the ball at the caustic under it (--camera 1): only vertex
+        # merging (--integrator vcm) finds that light. Lucent lists a scene's cameras from its
+        # last node, so the view from the front (the last node) is camera 0.
+        {"name": "through the ball", "camera": 1, "translation": [0.0, 2.2, 0.4], "rotation": [-0.6618026, 0.0, 0.0, 0.7496782]},
         {"name": "camera", "camera": 0, "translation": [0.0, 2.2, 3.4], "rotation": [-0.2588190, 0.0, 0.0, 0.9659258]},
     ],
-    "cameras": [{"type": "perspective", "perspective": {"yfov": 0.75, "znear": 0.01}}],
+    "cameras": [{"type": "perspective", "perspective": {"yfov": 0.75, "znear": 0.01}},
+                {"type": "perspective", "perspective": {"yfov": 0.35, "znear": 0.01}}],
     "meshes": meshes,
     "materials": [
         {"name": "grey", "pbrMetallicRoughness": {"baseColorFactor": [0.7, 0.7, 0.7, 1], "metallicFactor": 0, "roughnessFactor": 1}},
