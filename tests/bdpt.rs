@@ -120,11 +120,16 @@ fn bdpt_finds_the_caustic_a_point_light_casts_through_glass() {
     let (scene, camera) = point_light_over_glass();
     let pt = common::render(&scene, camera, settings(Integrator::Path, 256, 8), None);
     let bdpt = independent_blocks(&scene, camera, settings(Integrator::Bdpt, 64, 8), 8);
+    assert_more_light((&bdpt, "BDPT"), (&common::blocks(&pt, BLOCK), "the path tracer"));
+}
+
+/// Asserts the image of blocks `with` holds more light in all than `without`, by ten
+/// standard errors of the difference.
+fn assert_more_light((with, a): (&[(DVec3, DVec3)], &str), (without, b): (&[(DVec3, DVec3)], &str)) {
     let total = |b: &[(DVec3, DVec3)]| b.iter().map(|x| x.0.element_sum()).sum::<f64>();
     let var = |b: &[(DVec3, DVec3)]| b.iter().map(|x| x.1.element_sum()).sum::<f64>();
-    let (with, without) = (total(&bdpt), total(&common::blocks(&pt, BLOCK)));
-    let se = (var(&bdpt) + var(&common::blocks(&pt, BLOCK))).sqrt();
-    assert!(with - without > 10.0 * se, "BDPT {with:.4}, path tracer {without:.4} (se {se:.4})");
+    let (more, less, se) = (total(with), total(without), (var(with) + var(without)).sqrt());
+    assert!(more - less > 10.0 * se, "{a} {more:.4}, {b} {less:.4} (se {se:.4})");
 }
 
 #[test]
@@ -178,20 +183,12 @@ fn vcm_sees_the_caustic_through_the_glass_that_casts_it() {
     // A wider radius than the default: 32 iterations of 1,024 light subpaths are few.
     let wide = Settings { vcm_radius: 0.02, ..settings(Integrator::Vcm, 32, 8) };
     let vcm = independent_blocks(&scene, camera, wide, 6);
-    let total = |b: &[(DVec3, DVec3)]| b.iter().map(|x| x.0.element_sum()).sum::<f64>();
-    let var = |b: &[(DVec3, DVec3)]| b.iter().map(|x| x.1.element_sum()).sum::<f64>();
-    let se = (var(&bdpt) + var(&vcm)).sqrt();
-    let (with, without) = (total(&vcm), total(&bdpt));
-    assert!(with - without > 10.0 * se, "VCM {with:.4}, BDPT {without:.4} (se {se:.4})");
+    assert_more_light((&vcm, "VCM"), (&bdpt, "BDPT"));
 }
 
 #[test]
 fn vcm_renders_the_same_bits_on_any_number_of_threads() {
-    let scene = Arc::new(Scene::build(common::load("cornell-box-glass.gltf")));
-    let camera = scene.default_camera(1.0);
-    let s = settings(Integrator::Vcm, 4, 6);
-    let (one, two) = (common::render(&scene, camera, s, Some(1)), common::render(&scene, camera, s, Some(2)));
-    assert_eq!(one.mean, two.mean);
+    same_bits_on_one_and_two_threads(settings(Integrator::Vcm, 4, 6));
 }
 
 #[test]
@@ -222,9 +219,13 @@ fn bidirectional_renders_give_the_denoiser_the_path_tracers_albedo_and_normal() 
 
 #[test]
 fn bdpt_renders_the_same_bits_on_any_number_of_threads() {
+    same_bits_on_one_and_two_threads(settings(Integrator::Bdpt, 8, 6));
+}
+
+/// The glass box rendered with `s` on one thread and on two: the same bits.
+fn same_bits_on_one_and_two_threads(s: Settings) {
     let scene = Arc::new(Scene::build(common::load("cornell-box-glass.gltf")));
     let camera = scene.default_camera(1.0);
-    let s = settings(Integrator::Bdpt, 8, 6);
     let (one, two) = (common::render(&scene, camera, s, Some(1)), common::render(&scene, camera, s, Some(2)));
     assert_eq!(one.mean, two.mean);
 }

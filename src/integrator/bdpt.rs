@@ -831,11 +831,8 @@ mod tests {
 
     #[test]
     fn the_weights_of_every_strategy_of_a_path_sum_to_one() {
-        let mut x = 7u64;
-        let mut next = || {
-            x = x.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            (x >> 40) as f32 / (1u64 << 24) as f32
-        };
+        let mut rng = rand_pcg::Pcg32::new(7, 1);
+        let mut next = || (rand_core::RngCore::next_u32(&mut rng) >> 8) as f32 / (1u32 << 24) as f32;
         for case in 0..2000 {
             let n = 3 + case % 6;
             let delta: Vec<bool> = (0..n).map(|i| i > 0 && i + 1 < n && next() < 0.3).collect();

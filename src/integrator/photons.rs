@@ -233,11 +233,8 @@ mod tests {
     #[test]
     fn the_grid_finds_exactly_the_vertices_within_the_radius_once_each() {
         // A pseudo-random cloud, queried at points of it and between them, against brute force.
-        let mut x = 12345u64;
-        let mut next = || {
-            x = x.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            (x >> 40) as f32 / (1u64 << 24) as f32
-        };
+        let mut rng = rand_pcg::Pcg32::new(12345, 1);
+        let mut next = || (rand_core::RngCore::next_u32(&mut rng) >> 8) as f32 / (1u32 << 24) as f32;
         let points: Vec<Vec3> = (0..2000).map(|_| Vec3::new(next(), next(), next()) * 2.0 - 1.0).collect();
         let vertices: Vec<LightVertex> = points.iter().map(|&p| vertex(p)).collect();
         let radius = 0.08;
