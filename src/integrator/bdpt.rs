@@ -8,8 +8,11 @@
 //! splatted there. Light subpaths carry importance: their BSDFs are evaluated in
 //! `TransportMode::Importance`, with Veach's correction for shading normals.
 //!
-//! Surfaces only, in RGB: scenes with a scattering medium or a dispersive material are
-//! refused before rendering. Absorbing volumes attenuate every segment and connection;
+//! Both subpaths of a sample carry the same wavelengths (`Wavelengths`: RGB, or the spectral
+//! kernel's hero wavelengths, which a dispersive surface on either subpath reduces to the
+//! hero alone), so a prism fans a point light's beam into its spectrum; what the sample
+//! splats is turned into RGB once both subpaths are traced. Scenes with a scattering medium
+//! are refused before rendering. Absorbing volumes attenuate every segment and connection;
 //! surfaces crossed straight through (null lobes) are passed without a vertex, as the path
 //! tracer passes them. Subpaths have at most `max_depth` bounces; there is no roulette, so
 //! that every strategy's density is the product of its sampling densities.
@@ -152,17 +155,20 @@ pub fn radiance(
     sampler: &mut Sampler,
     (splat, aovs): (&mut dyn FnMut(Vec2, Spectrum), bool),
     merging: Option<Merging>,
+    wl: &mut Wavelengths,
 ) -> PathOutput {
     let mut out = PathOutput::default();
     let max = (cx.settings.max_depth as usize + 2).min(MAX_VERTICES);
     let mut camera: Vec<PathVertex> = Vec::with_capacity(max);
     let mut light: Vec<PathVertex> = Vec::with_capacity(max);
     let mut aov = AovTrace::new(aovs);
-    camera_subpath(cx, view, ray, sampler, max, &mut camera, (&mut out, &mut aov));
+    camera_subpath(cx, view, ray, sampler, max, &mut camera, (&mut out, &mut aov, wl));
     match merging {
-        Some(m) => light_subpath(cx, &mut light_sampler(cx, m.pixel, m.index), max - 1, &mut light, &mut out),
-        None => light_subpath(cx, sampler, max - 1, &mut light, &mut out),
+        Some(m) => light_subpath(cx, &mut light_sampler(cx, m.pixel, m.index), max - 1, &mut light, (&mut out, wl)),
+        None => light_subpath(cx, sampler, max - 1, &mut light, (&mut out, wl)),
     }
+    // Both subpaths are traced: the wavelengths they carry are final.
+    let wl = &*wl;
     let eta = merging.map_or(0.0, |m| m.photons.eta);
     let mut total = Spectrum::ZERO;
     for t in 1..=camera.len() {
@@ -171,16 +177,16 @@ pub fn radiance(
             if (s == 1 && t == 1) || depth < 0 || depth > cx.settings.max_depth as i64 {
                 continue;
             }
-            if let Some((l, film)) = connect(cx, view, (&light, s), (&camera, t), (sampler, eta), &mut out) {
+            if let Some((l, film)) = connect(cx, view, (&light, s), (&camera, t), (sampler, eta, wl), &mut out) {
                 match film {
-                    Some(film) => splat(film, l),
+                    Some(film) => splat(film, wl.to_rgb(l)),
                     None => total += l,
                 }
             }
         }
     }
     if let Some(m) = merging {
-        total += merge(cx, &camera, m.photons);
+        total += merge(cx, &camera, m.photons, wl);
     }
     out.radiance = total;
     out.aov = aov.finish();
@@ -192,7 +198,7 @@ pub fn radiance(
 /// constant kernel over the disc pi r^2, of which N light paths each count 1 / N), each
 /// weighted against every connection and merge that could have made its path (Georgiev et
 /// al. 2012, section 4.2).
-fn merge(cx: Context, camera: &[PathVertex], photons: &Photons) -> Spectrum {
+fn merge(cx: Context, camera: &[PathVertex], photons: &Photons, wl: &Wavelengths) -> Spectrum {
     let mut total = Spectrum::ZERO;
     for t in 2..=camera.len() {
         let z = &camera[t - 1];
@@ -213,12 +219,14 @@ fn merge(cx: Context, camera: &[PathVertex], photons: &Photons) -> Spectrum {
                 return;
             }
             // The BSDF without its cosine: the light vertices' density already counts it.
-            let f = zs.bsdf.eval(lo, li, TransportMode::Radiance) / li.z.abs();
+            let f = wl.reflectance(zs.bsdf.eval(lo, li, TransportMode::Radiance) / li.z.abs());
             if f.is_black() {
                 return;
             }
-            let weight = merge_weight(cx, (camera, t), &photons.vertices[i + 1 - s..=i], wi, photons.eta);
-            sum += f * y.beta * weight;
+            let weight = merge_weight(cx, (camera, t), &photons.vertices[i + 1 - s..=i], (wi, wl), photons.eta);
+            // A light path that kept only its hero wavelength counts for it alone.
+            let l = f * y.beta * weight;
+            sum += if y.hero_only { wl.hero_only(l) } else { l };
         });
         total += z.beta * sum / photons.eta;
     }
@@ -229,7 +237,13 @@ fn merge(cx: Context, camera: &[PathVertex], photons: &Photons) -> Spectrum {
 /// end of `light`, reached along `wi` from its predecessor): the merge's density against
 /// the connection (s, t - 1) that ends the light subpath at the merged point, and every
 /// other strategy's by the ratios along the path.
-fn merge_weight(cx: Context, (camera, t): (&[PathVertex], usize), light: &[LightVertex], wi: Vec3, eta: f32) -> f32 {
+fn merge_weight(
+    cx: Context,
+    (camera, t): (&[PathVertex], usize),
+    light: &[LightVertex],
+    (wi, wl): (Vec3, &Wavelengths),
+    eta: f32,
+) -> f32 {
     let s = light.len();
     let (z, before) = (&camera[t - 1], &camera[t - 2]);
     let Some(zs) = z.surface.as_ref() else { return 0.0 };
@@ -244,10 +258,10 @@ fn merge_weight(cx: Context, (camera, t): (&[PathVertex], usize), light: &[Light
     let wo = z.towards(before);
     // The merged vertex, reached from the light side, sampling the camera's previous vertex;
     // the camera's density of the merged vertex; the merged vertex sampling the light's.
-    cam[t - 2].rev = z.convert(surface_pdf(cx, zs, wi, wo), before);
+    cam[t - 2].rev = z.convert(surface_pdf(cx, zs, wi, wo, wl), before);
     lig[s - 1].rev = z.pdf_fwd;
     if s >= 2 {
-        let (prev, pdf) = (&light[s - 2], surface_pdf(cx, zs, wo, wi));
+        let (prev, pdf) = (&light[s - 2], surface_pdf(cx, zs, wo, wi, wl));
         lig[s - 2].rev = if prev.infinite { pdf } else { area_density(pdf, light[s - 1].p, prev.p, prev.n) };
     }
     let connection = if cam[t - 2].delta { 0.0 } else { 1.0 };
@@ -277,12 +291,12 @@ fn camera_subpath<'a>(
     sampler: &mut Sampler,
     max: usize,
     path: &mut Vec<PathVertex<'a>>,
-    (out, aov): (&mut PathOutput, &mut AovTrace),
+    (out, aov, wl): (&mut PathOutput, &mut AovTrace, &mut Wavelengths),
 ) {
     let pdf_dir = view.rays.pdf_dir(ray.d);
     path.push(PathVertex::end(Kind::Camera, ray.o, Vec3::ZERO, Spectrum::ONE, TransportMode::Radiance));
     let start = (ray, view.media);
-    walk(cx, start, Spectrum::ONE, pdf_dir, TransportMode::Radiance, sampler, max, path, (out, aov));
+    walk(cx, start, Spectrum::ONE, pdf_dir, TransportMode::Radiance, sampler, max, path, (out, aov, wl));
 }
 
 /// The light subpath: a light chosen by power, a ray leaving it, then a random walk.
@@ -291,7 +305,7 @@ pub(super) fn light_subpath<'a>(
     sampler: &mut Sampler,
     max: usize,
     path: &mut Vec<PathVertex<'a>>,
-    out: &mut PathOutput,
+    (out, wl): (&mut PathOutput, &mut Wavelengths),
 ) {
     let (u_select, u_pos, u_dir) = (sampler.next_2d(), sampler.next_2d(), sampler.next_2d());
     if max == 0 {
@@ -301,17 +315,18 @@ pub(super) fn light_subpath<'a>(
     let Some(le) = light.sample_le(cx.scene, u_pos, u_dir) else { return };
     let cos = le.n.map_or(1.0, |n| n.dot(le.ray.d).abs());
     let p = if matches!(light, Light::Directional(_) | Light::Environment) { -le.ray.d } else { le.ray.o };
-    let beta = le.radiance / (pmf * le.pdf_pos);
+    let radiance = wl.illuminant(le.radiance);
+    let beta = radiance / (pmf * le.pdf_pos);
     let mut vertex =
         PathVertex::end(Kind::Light(light, pmf), p, le.n.unwrap_or(Vec3::ZERO), beta, TransportMode::Importance);
     vertex.pdf_fwd = light_origin_density(cx, &vertex);
     let infinite = vertex.is_infinite();
     path.push(vertex);
-    let beta = le.radiance * (cos / (pmf * le.pdf_pos * le.pdf_dir));
+    let beta = radiance * (cos / (pmf * le.pdf_pos * le.pdf_dir));
     let start = path.len();
     // Light paths start outside every volume.
     let (from, aov) = ((le.ray, Media::default()), &mut AovTrace::off());
-    walk(cx, from, beta, le.pdf_dir, TransportMode::Importance, sampler, max, path, (out, aov));
+    walk(cx, from, beta, le.pdf_dir, TransportMode::Importance, sampler, max, path, (out, aov, wl));
     // From light at infinity the first surface's density is the disc's, projected.
     if infinite && path.len() > start {
         let first = &mut path[start];
@@ -331,12 +346,11 @@ fn walk<'a>(
     sampler: &mut Sampler,
     max: usize,
     path: &mut Vec<PathVertex<'a>>,
-    (out, aov): (&mut PathOutput, &mut AovTrace),
+    (out, aov, wl): (&mut PathOutput, &mut AovTrace, &mut Wavelengths),
 ) {
     let Context { scene, settings } = cx;
     let mut travelled = 0.0f32;
     let mut crossings = 0;
-    let wl = &mut Wavelengths::Rgb;
     while path.len() < max {
         out.rays += 1;
         let first = path.len() == 1;
@@ -352,7 +366,7 @@ fn walk<'a>(
                     Kind::Light(env, pmf),
                     d,
                     Vec3::ZERO,
-                    beta * escaped_transmittance(cx, &media),
+                    beta * escaped_transmittance(cx, &media, wl),
                     mode,
                 );
                 // Per solid angle: a light at infinity has no area.
@@ -362,7 +376,7 @@ fn walk<'a>(
             return;
         };
         if scene.features.volumes {
-            beta *= transmittance(media.sigma_t(&scene.materials), hit.t * ray.d.length());
+            beta *= transmittance(wl.reflectance(media.sigma_t(&scene.materials)), hit.t * ray.d.length());
         }
         let surface: Surface = scene.surface(&hit);
         let vertex = Vertex::new(cx, surface, ray.d, media, wl);
@@ -402,7 +416,7 @@ fn walk<'a>(
             if crossings > 64 {
                 return;
             }
-            beta *= bs.weight;
+            beta *= wl.reflectance(bs.weight);
             travelled += hit.t * ray.d.length();
             media = vertex.media_after(scene, crosses);
             ray = Ray { o: origin, d, tmax: f32::INFINITY };
@@ -410,7 +424,7 @@ fn walk<'a>(
         }
         travelled = 0.0;
         let wo = vertex.frame.to_world(vertex.wo);
-        beta *= bs.weight;
+        beta *= wl.reflectance(bs.weight);
         if mode == TransportMode::Importance {
             beta *= shading_correction(&vertex, wo, d);
         }
@@ -420,7 +434,7 @@ fn walk<'a>(
         } else {
             pdf = bs.pdf;
         }
-        let rev = if v.delta { 0.0 } else { surface_pdf(cx, &vertex, d, wo) };
+        let rev = if v.delta { 0.0 } else { surface_pdf(cx, &vertex, d, wo, wl) };
         path.push(v);
         let k = path.len() - 2;
         let (before, last) = path.split_at_mut(k + 1);
@@ -442,9 +456,9 @@ fn environment_light(cx: Context) -> Option<&'static Light> {
 }
 
 /// What the volume a ray leaves the scene in lets through (nothing for an absorbing one).
-fn escaped_transmittance(cx: Context, media: &Media) -> Spectrum {
+fn escaped_transmittance(cx: Context, media: &Media, wl: &Wavelengths) -> Spectrum {
     if cx.scene.features.volumes {
-        transmittance(media.sigma_t(&cx.scene.materials), f32::INFINITY)
+        transmittance(wl.reflectance(media.sigma_t(&cx.scene.materials)), f32::INFINITY)
     } else {
         Spectrum::ONE
     }
@@ -461,8 +475,9 @@ fn shading_correction(v: &Vertex, wo: Vec3, wi: Vec3) -> f32 {
 
 /// Solid-angle density with which the BSDF at `v` samples world direction `wi` for light
 /// arriving from world direction `wo` (both unit, pointing away): from the side `wo` lies
-/// on, the vertex rebuilt from that side where it is not the side the path arrived on.
-fn surface_pdf(cx: Context, v: &Vertex, wo: Vec3, wi: Vec3) -> f32 {
+/// on, the vertex rebuilt from that side (at the path's hero wavelength `wl`) where it is
+/// not the side the path arrived on.
+fn surface_pdf(cx: Context, v: &Vertex, wo: Vec3, wi: Vec3, wl: &Wavelengths) -> f32 {
     let (lo, li) = (v.frame.to_local(wo), v.frame.to_local(wi));
     if lo.z > 0.0 {
         return v.bsdf.pdf(lo, li);
@@ -470,26 +485,32 @@ fn surface_pdf(cx: Context, v: &Vertex, wo: Vec3, wi: Vec3) -> f32 {
     if !v.bsdf.transmits() {
         return 0.0;
     }
-    let other = Vertex::new(cx, v.surface, -wo, v.media_after(cx.scene, true), &mut Wavelengths::Rgb);
+    let other = Vertex::new(cx, v.surface, -wo, v.media_after(cx.scene, true), &mut wl.clone());
     other.bsdf.pdf(other.frame.to_local(wo), other.frame.to_local(wi))
 }
 
 /// f |cos| at `v` for light between world directions `wo` (back along the subpath) and `wi`
-/// (towards the connection), in `mode`, with the shading-normal correction for importance.
-fn surface_f(v: &Vertex, wo: Vec3, wi: Vec3, mode: TransportMode) -> Spectrum {
-    let f = v.bsdf.eval(v.frame.to_local(wo), v.frame.to_local(wi), mode);
+/// (towards the connection), in `mode`, with the shading-normal correction for importance,
+/// at the wavelengths `wl`.
+fn surface_f(v: &Vertex, (wo, wi): (Vec3, Vec3), mode: TransportMode, wl: &Wavelengths) -> Spectrum {
+    let f = wl.reflectance(v.bsdf.eval(v.frame.to_local(wo), v.frame.to_local(wi), mode));
     if mode == TransportMode::Importance { f * shading_correction(v, wo, wi) } else { f }
 }
 
 /// The density (per unit area at `next`, or per solid angle for light at infinity) with
-/// which vertex `v`, reached from `prev`, would sample `next`.
-fn density(cx: Context, view: &View, v: &PathVertex, prev: Option<&PathVertex>, next: &PathVertex) -> f32 {
+/// which vertex `v`, reached from `prev`, would sample `next` (at the hero wavelength `wl`).
+fn density(
+    (cx, view, wl): (Context, &View, &Wavelengths),
+    v: &PathVertex,
+    prev: Option<&PathVertex>,
+    next: &PathVertex,
+) -> f32 {
     match v.kind {
         Kind::Camera => v.convert(view.rays.pdf_dir(v.towards(next)), next),
         Kind::Light(..) => light_density(cx, v, next),
         Kind::Surface => {
             let (Some(s), Some(prev)) = (v.surface.as_ref(), prev) else { return 0.0 };
-            v.convert(surface_pdf(cx, s, v.towards(prev), v.towards(next)), next)
+            v.convert(surface_pdf(cx, s, v.towards(prev), v.towards(next), wl), next)
         }
     }
 }
@@ -536,11 +557,13 @@ fn light_origin_density(cx: Context, v: &PathVertex) -> f32 {
 
 /// Radiance the emitting vertex `v` sends towards `w` (unit): an emitting surface's front,
 /// or the environment.
-fn emitted(cx: Context, v: &PathVertex, w: Vec3) -> Spectrum {
+fn emitted(cx: Context, v: &PathVertex, w: Vec3, wl: &Wavelengths) -> Spectrum {
     match v.kind {
-        Kind::Light(Light::Environment, _) => cx.scene.environment.as_ref().map_or(Spectrum::ZERO, |e| e.radiance(v.p)),
+        Kind::Light(Light::Environment, _) => {
+            cx.scene.environment.as_ref().map_or(Spectrum::ZERO, |e| wl.illuminant(e.radiance(v.p)))
+        }
         Kind::Surface => match v.surface {
-            Some(s) if s.front && v.n.dot(w) > 0.0 => cx.scene.emission(&s.surface),
+            Some(s) if s.front && v.n.dot(w) > 0.0 => wl.illuminant(cx.scene.emission(&s.surface)),
             _ => Spectrum::ZERO,
         },
         _ => Spectrum::ZERO,
@@ -554,7 +577,7 @@ fn connect(
     view: &View,
     (light, s): (&[PathVertex], usize),
     (camera, t): (&[PathVertex], usize),
-    (sampler, eta): (&mut Sampler, f32),
+    (sampler, eta, wl): (&mut Sampler, f32, &Wavelengths),
     out: &mut PathOutput,
 ) -> Option<(Spectrum, Option<Vec2>)> {
     let pt = camera[t - 1];
@@ -568,7 +591,7 @@ fn connect(
         if !pt.is_light() {
             return None;
         }
-        pt.beta * emitted(cx, &pt, pt.towards(&camera[t - 2]))
+        pt.beta * emitted(cx, &pt, pt.towards(&camera[t - 2]), wl)
     } else if t == 1 {
         // Light tracing: the camera sees the light subpath's vertex s - 1.
         let qs = light[s - 1];
@@ -580,15 +603,22 @@ fn connect(
         let dist2 = to_camera.length_squared();
         let wi = to_camera / dist2.sqrt();
         let (we, position) = view.rays.importance(-wi)?;
+        // The camera does not see the back of a single-sided surface.
+        if let Some(v) = qs.surface
+            && cx.scene.features.cutouts
+            && cx.scene.materials[v.surface.material as usize].culled_from(-wi, v.surface.ng)
+        {
+            return None;
+        }
         let pdf = dist2 / view.rays.cos(-wi);
         let camera_vertex =
             PathVertex::end(Kind::Camera, origin, Vec3::ZERO, Spectrum::splat(we / pdf), TransportMode::Radiance);
-        let f = vertex_f(&qs, light.get(s.wrapping_sub(2)), wi)?;
+        let f = vertex_f(&qs, light.get(s.wrapping_sub(2)), wi, wl)?;
         let l = qs.beta * f * camera_vertex.beta;
         if l.is_black() {
             return None;
         }
-        let tr = visibility(cx, &qs, origin, LightTarget::Point(origin), sampler, out)?;
+        let tr = visibility(cx, &qs, (origin, LightTarget::Point(origin)), (sampler, wl), out)?;
         sampled = Some(camera_vertex);
         film = Some(position);
         l * tr
@@ -606,14 +636,15 @@ fn connect(
             LightTarget::Point(p) => (p, Vec3::ZERO),
             LightTarget::Infinite => (ls.wi, Vec3::ZERO),
         };
-        let mut v = PathVertex::end(Kind::Light(light, pmf), p, n, ls.radiance / ls.pdf, TransportMode::Importance);
+        let radiance = wl.illuminant(ls.radiance);
+        let mut v = PathVertex::end(Kind::Light(light, pmf), p, n, radiance / ls.pdf, TransportMode::Importance);
         v.pdf_fwd = light_origin_density(cx, &v);
-        let f = vertex_f(&pt, Some(&camera[t - 2]), ls.wi)?;
+        let f = vertex_f(&pt, Some(&camera[t - 2]), ls.wi, wl)?;
         let l = pt.beta * f * v.beta;
         if l.is_black() {
             return None;
         }
-        let tr = visibility(cx, &pt, pt.p + ls.wi, ls.target, sampler, out)?;
+        let tr = visibility(cx, &pt, (pt.p + ls.wi, ls.target), (sampler, wl), out)?;
         sampled = Some(v);
         l * tr
     } else {
@@ -625,8 +656,8 @@ fn connect(
         let d = qs.p - pt.p;
         let dist2 = d.length_squared();
         let w = d / dist2.sqrt();
-        let f_pt = vertex_f(&pt, Some(&camera[t - 2]), w)?;
-        let f_qs = vertex_f(&qs, light.get(s.wrapping_sub(2)), -w)?;
+        let f_pt = vertex_f(&pt, Some(&camera[t - 2]), w, wl)?;
+        let f_qs = vertex_f(&qs, light.get(s.wrapping_sub(2)), -w, wl)?;
         let l = qs.beta * f_qs * f_pt * pt.beta / dist2;
         if l.is_black() {
             return None;
@@ -635,20 +666,20 @@ fn connect(
             Some(v) => LightTarget::Surface { p: v.surface.p, error: v.surface.p_error, n: qs.n },
             None => LightTarget::Point(qs.p),
         };
-        l * visibility(cx, &pt, qs.p, target, sampler, out)?
+        l * visibility(cx, &pt, (qs.p, target), (sampler, wl), out)?
     };
     if l.is_black() || !l.is_finite() {
         return None;
     }
-    let weight = mis_weight(cx, view, (light, s), (camera, t), sampled, eta);
+    let weight = mis_weight((cx, view, wl), (light, s), (camera, t), sampled, eta);
     Some((l * weight, film))
 }
 
 /// f |cos| at the surface vertex `v`, reached from `prev`, towards unit `w`, as its subpath
-/// carries light; None where it is zero.
-fn vertex_f(v: &PathVertex, prev: Option<&PathVertex>, w: Vec3) -> Option<Spectrum> {
+/// carries light at the wavelengths `wl`; None where it is zero.
+fn vertex_f(v: &PathVertex, prev: Option<&PathVertex>, w: Vec3, wl: &Wavelengths) -> Option<Spectrum> {
     let s = v.surface.as_ref()?;
-    let f = surface_f(s, v.towards(prev?), w, v.mode);
+    let f = surface_f(s, (v.towards(prev?), w), v.mode, wl);
     (!f.is_black()).then_some(f)
 }
 
@@ -657,9 +688,8 @@ fn vertex_f(v: &PathVertex, prev: Option<&PathVertex>, w: Vec3) -> Option<Spectr
 fn visibility(
     cx: Context,
     from: &PathVertex,
-    end: Vec3,
-    target: LightTarget,
-    sampler: &mut Sampler,
+    (end, target): (Vec3, LightTarget),
+    (sampler, wl): (&mut Sampler, &Wavelengths),
     out: &mut PathOutput,
 ) -> Option<Spectrum> {
     let w = (end - from.p).normalize_or_zero();
@@ -672,7 +702,7 @@ fn visibility(
     };
     out.rays += 1;
     out.shadow_rays += 1;
-    let tr = shadow(cx, (origin, w, target), media, sampler, &Wavelengths::Rgb);
+    let tr = shadow(cx, (origin, w, target), media, sampler, wl);
     (!tr.is_black()).then_some(tr)
 }
 
@@ -687,8 +717,7 @@ fn remap0(x: f32) -> f32 {
 /// reverse to forward densities along the path; with vertex merging (`eta` > 0) the merges
 /// at every vertex count too.
 fn mis_weight(
-    cx: Context,
-    view: &View,
+    (cx, view, wl): (Context, &View, &Wavelengths),
     (light, s): (&[PathVertex], usize),
     (camera, t): (&[PathVertex], usize),
     sampled: Option<PathVertex>,
@@ -724,21 +753,21 @@ fn mis_weight(
     }
     // pt's reverse density: qs sampling pt (or the light subpath starting at pt).
     cam[t - 1].rev = match qs {
-        Some(q) => density(cx, view, &q, if s > 1 { Some(&light[s - 2]) } else { None }, &pt),
+        Some(q) => density((cx, view, wl), &q, if s > 1 { Some(&light[s - 2]) } else { None }, &pt),
         None => light_origin_density(cx, &pt),
     };
     // pt's predecessor, from pt.
     if t > 1 {
         cam[t - 2].rev = match qs {
-            Some(q) => density(cx, view, &pt, Some(&q), &camera[t - 2]),
+            Some(q) => density((cx, view, wl), &pt, Some(&q), &camera[t - 2]),
             None => light_density(cx, &pt, &camera[t - 2]),
         };
     }
     if let Some(q) = qs {
         // qs's reverse density: pt sampling qs; and qs's predecessor, from qs.
-        lig[s - 1].rev = density(cx, view, &pt, if t > 1 { Some(&camera[t - 2]) } else { None }, &q);
+        lig[s - 1].rev = density((cx, view, wl), &pt, if t > 1 { Some(&camera[t - 2]) } else { None }, &q);
         if s > 1 {
-            lig[s - 2].rev = density(cx, view, &q, Some(&pt), &light[s - 2]);
+            lig[s - 2].rev = density((cx, view, wl), &q, Some(&pt), &light[s - 2]);
         }
     }
     let origin_delta = match (s, qs) {

@@ -88,7 +88,7 @@ pub fn simulated_effects(scene: &Scene, settings: &Settings) -> String {
 /// Whether paths carry sampled wavelengths: asked for, or needed by a dispersive material.
 /// Distribution ray tracing stays RGB (the session refuses it for spectral scenes).
 pub fn is_spectral(scene: &Scene, settings: &Settings) -> bool {
-    settings.integrator == Integrator::Path && settings.wants_spectral(scene.features.dispersion)
+    settings.integrator != Integrator::Distribution && settings.wants_spectral(scene.features.dispersion)
 }
 
 /// Offset of a sample inside its pixel, in [0, 1)^2, per the pixel-sampling mode.
@@ -187,7 +187,10 @@ fn sample(
     let ray = view.rays.ray(pixel.as_vec2() + offset);
     check(NanCause::CameraRay, Spectrum::from_rgb(ray.o + ray.d));
     let media = view.media;
-    let mut wl = if is_spectral(scene, settings) {
+    // Vertex merging joins paths of the whole iteration, which therefore share wavelengths.
+    let mut wl = if settings.integrator == Integrator::Vcm && photons.is_some() {
+        super::photons::wavelengths(cx, index)
+    } else if is_spectral(scene, settings) {
         Wavelengths::Sampled(Sampled::new(sampler.next_1d()))
     } else {
         Wavelengths::Rgb
@@ -196,10 +199,10 @@ fn sample(
         (Integrator::Path, false) => super::path::radiance::<false>(cx, ray, media, &mut sampler, &mut wl, aovs),
         (Integrator::Path, true) => super::path::radiance::<true>(cx, ray, media, &mut sampler, &mut wl, aovs),
         (Integrator::Distribution, _) => super::drt::radiance(cx, ray, media, &mut sampler, aovs),
-        (Integrator::Bdpt, _) => super::bdpt::radiance(cx, view, ray, &mut sampler, (splat, aovs), None),
+        (Integrator::Bdpt, _) => super::bdpt::radiance(cx, view, ray, &mut sampler, (splat, aovs), None, &mut wl),
         (Integrator::Vcm, _) => {
             let merging = photons.map(|photons| Merging { photons, pixel, index });
-            super::bdpt::radiance(cx, view, ray, &mut sampler, (splat, aovs), merging)
+            super::bdpt::radiance(cx, view, ray, &mut sampler, (splat, aovs), merging, &mut wl)
         }
     };
     out.radiance = wl.to_rgb(out.radiance);

@@ -10,13 +10,16 @@
 use super::Context;
 use super::bdpt::{PathVertex, light_subpath};
 use super::kernel::PathOutput;
-use crate::math::sampler::PixelSequence;
-use crate::spectrum::Spectrum;
+use crate::math::sampler::{PixelSequence, hash3};
+use crate::spectrum::{Spectrum, Wavelengths, sampled::Sampled};
 use glam::{IVec3, UVec2, Vec3};
 use rayon::prelude::*;
 
 /// Seed offset of the light subpaths' random streams (apart from the camera paths').
 const LIGHT_STREAM: u64 = 0x6c69_6768_7470_6174;
+
+/// Seed offset of the iterations' wavelengths.
+const WAVELENGTH_STREAM: u64 = 0x7761_7665_6c65_6e67;
 
 /// The radius shrinks as i^((alpha - 1) / 2) over iterations i = 1, 2, ... (Knaus and
 /// Zwicker 2011), which keeps the estimate consistent: its bias vanishes and its variance
@@ -57,6 +60,8 @@ pub struct LightVertex {
     pub delta_light: bool,
     /// Index of the vertex in its subpath (0: on the light).
     pub index: u32,
+    /// Its subpath kept only its hero wavelength (it met a dispersive surface).
+    pub hero_only: bool,
 }
 
 impl LightVertex {
@@ -68,7 +73,7 @@ impl LightVertex {
         width as u64 * height as u64 * per_path * (std::mem::size_of::<LightVertex>() as u64 + 12)
     }
 
-    fn of(v: &PathVertex, index: usize) -> Self {
+    fn of(v: &PathVertex, index: usize, hero_only: bool) -> Self {
         LightVertex {
             p: v.p,
             n: v.n,
@@ -77,6 +82,7 @@ impl LightVertex {
             infinite: v.is_infinite(),
             delta_light: v.is_delta_light(),
             index: index as u32,
+            hero_only,
         }
     }
 }
@@ -107,8 +113,10 @@ impl Photons {
                 for x in 0..width {
                     path.clear();
                     let mut sampler = light_sampler(cx, UVec2::new(x, y), index);
-                    light_subpath(cx, &mut sampler, max, &mut path, &mut out);
-                    row.extend(path.iter().enumerate().map(|(i, v)| LightVertex::of(v, i)));
+                    let mut wl = wavelengths(cx, index);
+                    light_subpath(cx, &mut sampler, max, &mut path, (&mut out, &mut wl));
+                    let hero_only = wl.secondary_terminated();
+                    row.extend(path.iter().enumerate().map(|(i, v)| LightVertex::of(v, i, hero_only)));
                 }
                 (row, out.rays as u64)
             })
@@ -137,6 +145,17 @@ impl Photons {
 pub(crate) fn light_sampler(cx: Context, pixel: UVec2, index: u64) -> crate::math::sampler::Sampler {
     let s = cx.settings;
     PixelSequence::new(s.sampler, 1, pixel, s.seed ^ LIGHT_STREAM).sampler(index)
+}
+
+/// The wavelengths every path of iteration `index` carries, camera and light subpaths alike,
+/// so that any camera vertex can merge with any light vertex (RGB where the kernel is).
+pub(crate) fn wavelengths(cx: Context, index: u64) -> Wavelengths {
+    if super::kernel::is_spectral(cx.scene, cx.settings) {
+        let u = (hash3(index, cx.settings.seed, WAVELENGTH_STREAM) >> 40) as f32 / (1u64 << 24) as f32;
+        Wavelengths::Sampled(Sampled::new(u))
+    } else {
+        Wavelengths::Rgb
+    }
 }
 
 /// The merging radius at iteration (sample index) `index`: the setting's share of the
@@ -227,6 +246,7 @@ mod tests {
             infinite: false,
             delta_light: false,
             index: 1,
+            hero_only: false,
         }
     }
 

@@ -411,9 +411,6 @@ fn check_job(job: &Job, limits: &Limits) -> Result<(), SessionError> {
         if job.scene.features.media {
             return refuse("does not simulate scattering media yet");
         }
-        if s.wants_spectral(job.scene.features.dispersion) {
-            return refuse("is RGB only (dispersion needs the spectral path tracer), or add --spectral off");
-        }
         if s.noise_threshold.is_some() {
             return refuse(
                 "adds light to any pixel, so a pixel's noise cannot stop its samples (no --noise-threshold)",

@@ -417,6 +417,13 @@ impl Material {
         self.alpha_mode != AlphaMode::Opaque || !self.double_sided
     }
 
+    /// Whether the camera sees through this surface from the back (glTF's single-sided
+    /// materials are culled there; volumes never are): a camera looking along `d` at a
+    /// facet of geometric normal `ng`.
+    pub fn culled_from(&self, d: Vec3, ng: Vec3) -> bool {
+        !self.double_sided && !self.is_volume() && d.dot(ng) > 0.0
+    }
+
     /// The textures its slots read: those of `MATERIAL_PARAMS`' entries.
     fn textures(&self) -> impl Iterator<Item = TexRef> + '_ {
         MATERIAL_PARAMS.iter().filter_map(|p| (p.texture.as_ref()?.get)(self))

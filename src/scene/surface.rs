@@ -130,7 +130,7 @@ impl Scene {
     fn blocks(&self, ray: &Ray, tri: u32, b: [f32; 3], camera: bool) -> bool {
         let (material, ng) = self.geometry.with_triangle(tri, |_, a, _| (a.material, a.ng));
         let m = &self.materials[material as usize];
-        if camera && !m.double_sided && !m.is_volume() && ray.d.dot(ng) > 0.0 {
+        if camera && m.culled_from(ray.d, ng) {
             return false;
         }
         if m.alpha_mode == AlphaMode::Opaque {

@@ -60,6 +60,23 @@ impl Wavelengths {
         }
     }
 
+    /// Whether a spectral path kept only its hero wavelength.
+    pub fn secondary_terminated(&self) -> bool {
+        matches!(self, Wavelengths::Sampled(s) if s.secondary_terminated())
+    }
+
+    /// Radiance `l` that only the hero wavelength carries (its other wavelengths were
+    /// terminated on a path joined to this one), expressed on this path: `to_rgb` of the
+    /// result is what the terminated wavelengths would make of `l`.
+    pub fn hero_only(&self, l: Spectrum) -> Spectrum {
+        match self {
+            Wavelengths::Sampled(s) if !s.secondary_terminated() => {
+                Spectrum::from_rgb(glam::Vec3::new(l.get(0) * sampled::N as f32, 0.0, 0.0))
+            }
+            _ => l,
+        }
+    }
+
     /// Linear sRGB of the radiance `l` carried on this path.
     #[inline]
     pub fn to_rgb(&self, l: Spectrum) -> Spectrum {
