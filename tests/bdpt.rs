@@ -238,6 +238,12 @@ fn bdpt_refuses_what_it_does_not_simulate() {
     let job = lucent::render::Job { scene, camera, settings: s, window: None, aovs: false };
     let err = lucent::render::RenderSession::new(job, None).err().expect("refused");
     assert!(err.to_string().contains("noise-threshold"), "{err}");
+    let deep =
+        Settings { max_depth: lucent::integrator::MAX_BIDIRECTIONAL_DEPTH + 1, ..settings(Integrator::Vcm, 8, 5) };
+    let scene = Arc::new(Scene::build(builtin::cornell_box()));
+    let job = lucent::render::Job { scene, camera, settings: deep, window: None, aovs: false };
+    let err = lucent::render::RenderSession::new(job, None).err().expect("refused");
+    assert!(err.to_string().contains("at most 32 bounces (--max-depth 33)"), "{err}");
 }
 
 #[test]
@@ -415,5 +421,47 @@ fn light_tracing_does_not_show_the_camera_the_back_of_a_single_sided_surface() {
         let snap = common::render(&scene, camera, settings(integrator, 16, 5), None);
         let total: f32 = snap.mean.iter().map(|p| p.element_sum()).sum();
         assert_eq!(total, 0.0, "{integrator:?} sees light through the culled top");
+    }
+}
+
+#[test]
+fn bdpt_and_vcm_agree_with_the_path_tracer_in_fog_smoke_wax_and_a_spot_lights_beam() {
+    // Medium vertices: free flights sampled along every segment of both subpaths, the phase
+    // function as their BSDF, transmittance on connections (ratio tracking through the smoke's
+    // grid); merging stays at surfaces. The wax's random walk is cut at the same depth as the
+    // path tracer's.
+    // The spot light hangs inside the fog: light subpaths start in it.
+    for name in ["cornell-fog", "cornell-smoke", "cornell-subsurface", "spot-fog"] {
+        let path = format!("{}/docs/scenes/{name}.gltf", env!("CARGO_MANIFEST_DIR"));
+        let scene = Arc::new(Scene::build(common::load(path)));
+        let camera = scene.default_camera(1.0);
+        agrees_with_the_path_tracer_as(Integrator::Bdpt, &scene, camera, 8, &format!("BDPT, {name}"));
+        agrees_with_the_path_tracer_as(Integrator::Vcm, &scene, camera, 8, &format!("VCM, {name}"));
+    }
+}
+
+#[test]
+fn each_strategy_alone_estimates_the_paths_it_can_make() {
+    // Unweighted, the connections with s light vertices estimate every path of depth s - 1
+    // and more on their own (s = 0 from depth 0, the camera finding the light; s = 1 from
+    // depth 1, as (1, 1) is not a strategy): the path tracer's image to the max depth,
+    // minus its image of the shallower depths. Each strategy's contribution and light
+    // tracing's splats are checked alone here, apart from the weights.
+    let scene = Arc::new(Scene::build(builtin::cornell_box()));
+    let camera = scene.default_camera(1.0);
+    let max_depth = 4;
+    let path =
+        |depth| common::blocks(&common::render(&scene, camera, settings(Integrator::Path, 2048, depth), None), BLOCK);
+    let full = path(max_depth);
+    let z_max = common::sidak_z(1e-3, 5 * (SIZE / BLOCK).pow(2) as usize * 3);
+    for s in 0..=4u32 {
+        let shallowest = if s == 0 { 0 } else { (s - 1).max(1) };
+        let reference: Vec<(DVec3, DVec3)> = match shallowest {
+            0 => full.clone(),
+            d => full.iter().zip(path(d - 1)).map(|(a, b)| (a.0 - b.0, a.1 + b.1)).collect(),
+        };
+        let one = Settings { strategy: Some(s), ..settings(Integrator::Bdpt, 64, max_depth) };
+        let blocks = independent_blocks(&scene, camera, one, 12);
+        common::assert_block_means_agree(&blocks, &reference, 0..3, 0.0, z_max, &format!("strategy s = {s}"));
     }
 }

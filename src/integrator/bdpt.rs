@@ -11,8 +11,13 @@
 //! Both subpaths of a sample carry the same wavelengths (`Wavelengths`: RGB, or the spectral
 //! kernel's hero wavelengths, which a dispersive surface on either subpath reduces to the
 //! hero alone), so a prism fans a point light's beam into its spectrum; what the sample
-//! splats is turned into RGB once both subpaths are traced. Scenes with a scattering medium
-//! are refused before rendering. Absorbing volumes attenuate every segment and connection;
+//! splats is turned into RGB once both subpaths are traced. In a scattering medium each
+//! segment samples a free flight (`media::flight`, as the volumetric path tracer does) and
+//! may end at a medium vertex, whose phase function acts as its BSDF and whose density per
+//! unit volume is the direction's over the squared distance; the free flights' own densities
+//! are left out of every strategy's weight alike (as pbrt-v3 does), so the weights still sum
+//! to 1. Light subpaths start in the volumes around their light. Absorbing volumes
+//! attenuate every segment and connection;
 //! surfaces crossed straight through (null lobes) are passed without a vertex, as the path
 //! tracer passes them. Subpaths have at most `max_depth` bounces; there is no roulette, so
 //! that every strategy's density is the product of its sampling densities.
@@ -25,11 +30,13 @@ use super::Context;
 use super::aov::AovTrace;
 use super::direct::shadow;
 use super::kernel::{PathOutput, View};
-use super::media::{Media, transmittance};
+use super::media::{Media, flight, transmittance};
 use super::photons::{Densities, LightVertex, Photons, light_sampler};
+use super::settings::Integrator;
 use super::vertex::Vertex;
 use crate::bsdf::{LobeFlags, TransportMode};
 use crate::math::sampler::Sampler;
+use crate::medium::{Flight, phase::HenyeyGreenstein};
 use crate::scene::{
     Surface,
     geometry::Ray,
@@ -41,6 +48,9 @@ use glam::{UVec2, Vec2, Vec3};
 /// Most vertices a subpath keeps (its camera or light vertex and its bounces).
 pub(super) const MAX_VERTICES: usize = 34;
 
+/// The deepest paths bidirectional estimators follow (`max_depth` beyond it is refused).
+pub const MAX_DEPTH: u32 = MAX_VERTICES as u32 - 2;
+
 /// What a subpath vertex is.
 #[derive(Clone, Copy)]
 enum Kind<'a> {
@@ -51,6 +61,8 @@ enum Kind<'a> {
     Light(&'a Light, f32),
     /// A surface scattering event.
     Surface,
+    /// Light scattered in a medium, by its phase function, inside the volumes `media`.
+    Medium(HenyeyGreenstein, Media),
 }
 
 /// A subpath vertex (pbrt-v4's BDPT `Vertex`).
@@ -82,7 +94,7 @@ impl<'a> PathVertex<'a> {
         match self.kind {
             Kind::Light(..) => true,
             Kind::Surface => self.emissive,
-            Kind::Camera => false,
+            Kind::Camera | Kind::Medium(..) => false,
         }
     }
 
@@ -99,7 +111,7 @@ impl<'a> PathVertex<'a> {
     /// Whether a connection may end here: not a delta lobe, not a delta direction.
     fn connectible(&self) -> bool {
         match self.kind {
-            Kind::Camera => true,
+            Kind::Camera | Kind::Medium(..) => true,
             Kind::Light(l, _) => !matches!(l, Light::Directional(_)),
             Kind::Surface => self.surface.is_some_and(|s| s.bsdf.flags().has_non_specular()),
         }
@@ -171,10 +183,11 @@ pub fn radiance(
     let wl = &*wl;
     let eta = merging.map_or(0.0, |m| m.photons.eta);
     let mut total = Spectrum::ZERO;
+    let only = one_strategy(cx).map(|s| s as usize);
     for t in 1..=camera.len() {
         for s in 0..=light.len() {
             let depth = s as i64 + t as i64 - 2;
-            if (s == 1 && t == 1) || depth < 0 || depth > cx.settings.max_depth as i64 {
+            if (s == 1 && t == 1) || depth < 0 || depth > cx.settings.max_depth as i64 || only.is_some_and(|o| o != s) {
                 continue;
             }
             if let Some((l, film)) = connect(cx, view, (&light, s), (&camera, t), (sampler, eta, wl), &mut out) {
@@ -324,8 +337,11 @@ pub(super) fn light_subpath<'a>(
     path.push(vertex);
     let beta = radiance * (cos / (pmf * le.pdf_pos * le.pdf_dir));
     let start = path.len();
-    // Light paths start outside every volume.
-    let (from, aov) = ((le.ray, Media::default()), &mut AovTrace::off());
+    // Light paths start in the scattering volumes around the light (light from infinitely
+    // far away, and light in scenes without scattering volumes, outside every volume).
+    let media =
+        if cx.scene.features.media && !infinite { Media::containing(cx.scene, le.ray.o) } else { Media::default() };
+    let (from, aov) = ((le.ray, media), &mut AovTrace::off());
     walk(cx, from, beta, le.pdf_dir, TransportMode::Importance, sampler, max, path, (out, aov, wl));
     // From light at infinity the first surface's density is the disc's, projected.
     if infinite && path.len() > start {
@@ -354,7 +370,44 @@ fn walk<'a>(
     while path.len() < max {
         out.rays += 1;
         let first = path.len() == 1;
-        let Some(hit) = scene.intersect(&ray, settings.watertight, first && mode == TransportMode::Radiance) else {
+        let hit = scene.intersect(&ray, settings.watertight, first && mode == TransportMode::Radiance);
+        // A scattering medium: where it scatters the subpath first, if before the surface.
+        if scene.features.media
+            && let Some(volume) = media.volume(&scene.materials).filter(|v| v.scatters())
+        {
+            let length = ray.d.length();
+            let t_max = hit.map_or(f32::INFINITY, |h| h.t * length);
+            match flight(scene, &volume, (&ray, t_max), beta, sampler, wl) {
+                Flight::Pass { weight } => beta *= weight,
+                Flight::Scatter { t, weight } => {
+                    beta *= weight;
+                    let (wo, phase) = (-ray.d / length, volume.phase());
+                    aov.medium(volume.albedo, wo);
+                    let p = ray.o + ray.d * (t / length);
+                    let mut v = PathVertex::end(Kind::Medium(phase, media), p, Vec3::ZERO, beta, mode);
+                    v.pdf_fwd = pdf / (travelled + t).powi(2);
+                    if path.len() + 1 == max {
+                        path.push(v);
+                        return;
+                    }
+                    // The phase function is its own density, and symmetric: the reverse
+                    // density is the forward one, and the weight is 1.
+                    let next = phase.sample(wo, sampler.next_2d());
+                    pdf = next.pdf;
+                    path.push(v);
+                    let k = path.len() - 2;
+                    let (before, last) = path.split_at_mut(k + 1);
+                    before[k].pdf_rev = last[0].convert(next.pdf, &before[k]);
+                    (ray, travelled) = (Ray { o: p, d: next.wi, tmax: f32::INFINITY }, 0.0);
+                    continue;
+                }
+            }
+        } else if let Some(hit) = hit
+            && scene.features.volumes
+        {
+            beta *= transmittance(wl.reflectance(media.sigma_t(&scene.materials)), hit.t * ray.d.length());
+        }
+        let Some(hit) = hit else {
             // The camera subpath may end on the environment: a vertex of light at infinity.
             if mode == TransportMode::Radiance
                 && scene.environment.is_some()
@@ -375,9 +428,6 @@ fn walk<'a>(
             }
             return;
         };
-        if scene.features.volumes {
-            beta *= transmittance(wl.reflectance(media.sigma_t(&scene.materials)), hit.t * ray.d.length());
-        }
         let surface: Surface = scene.surface(&hit);
         let vertex = Vertex::new(cx, surface, ray.d, media, wl);
         aov.surface(&vertex);
@@ -508,6 +558,10 @@ fn density(
     match v.kind {
         Kind::Camera => v.convert(view.rays.pdf_dir(v.towards(next)), next),
         Kind::Light(..) => light_density(cx, v, next),
+        Kind::Medium(phase, _) => match prev {
+            Some(prev) => v.convert(phase.eval(v.towards(prev), v.towards(next)), next),
+            None => 0.0,
+        },
         Kind::Surface => {
             let (Some(s), Some(prev)) = (v.surface.as_ref(), prev) else { return 0.0 };
             v.convert(surface_pdf(cx, s, v.towards(prev), v.towards(next), wl), next)
@@ -530,7 +584,7 @@ fn light_density(cx: Context, v: &PathVertex, next: &PathVertex) -> f32 {
             let cos = v.n.dot(v.towards(next));
             if cos > 0.0 { v.convert(crate::math::warp::cos_hemisphere_pdf(cos), next) } else { 0.0 }
         }
-        Kind::Camera => 0.0,
+        Kind::Camera | Kind::Medium(..) => 0.0,
     }
 }
 
@@ -551,7 +605,7 @@ fn light_origin_density(cx: Context, v: &PathVertex) -> f32 {
             let area = cx.scene.light_sampler.triangle_area(tri);
             if area > 0.0 { pick / area } else { 0.0 }
         }
-        Kind::Camera => 0.0,
+        Kind::Camera | Kind::Medium(..) => 0.0,
     }
 }
 
@@ -624,7 +678,7 @@ fn connect(
         l * tr
     } else if s == 1 {
         // Next-event estimation from the camera subpath's vertex t - 1.
-        if !pt.connectible() || !matches!(pt.kind, Kind::Surface) {
+        if !pt.connectible() || !matches!(pt.kind, Kind::Surface | Kind::Medium(..)) {
             return None;
         }
         let (u_select, u) = (sampler.next_2d(), sampler.next_2d());
@@ -671,15 +725,28 @@ fn connect(
     if l.is_black() || !l.is_finite() {
         return None;
     }
+    if one_strategy(cx).is_some() {
+        return Some((l, film));
+    }
     let weight = mis_weight((cx, view, wl), (light, s), (camera, t), sampled, eta);
     Some((l * weight, film))
+}
+
+/// The one strategy (its number of light vertices) bidirectional path tracing shows alone
+/// and unweighted, if the settings ask for it.
+fn one_strategy(cx: Context) -> Option<u32> {
+    cx.settings.strategy.filter(|_| cx.settings.integrator == Integrator::Bdpt)
 }
 
 /// f |cos| at the surface vertex `v`, reached from `prev`, towards unit `w`, as its subpath
 /// carries light at the wavelengths `wl`; None where it is zero.
 fn vertex_f(v: &PathVertex, prev: Option<&PathVertex>, w: Vec3, wl: &Wavelengths) -> Option<Spectrum> {
-    let s = v.surface.as_ref()?;
-    let f = surface_f(s, (v.towards(prev?), w), v.mode, wl);
+    let wo = v.towards(prev?);
+    let f = match (v.kind, v.surface.as_ref()) {
+        (Kind::Medium(phase, _), _) => Spectrum::splat(phase.eval(wo, w)),
+        (_, Some(s)) => surface_f(s, (wo, w), v.mode, wl),
+        _ => return None,
+    };
     (!f.is_black()).then_some(f)
 }
 
@@ -693,12 +760,13 @@ fn visibility(
     out: &mut PathOutput,
 ) -> Option<Spectrum> {
     let w = (end - from.p).normalize_or_zero();
-    let (origin, media) = match from.surface {
-        Some(v) => {
+    let (origin, media) = match (from.surface, from.kind) {
+        (Some(v), _) => {
             let (_, origin, crosses) = v.leave(v.frame.to_local(w))?;
             (origin, v.media_after(cx.scene, crosses))
         }
-        None => (from.p, Media::default()),
+        (None, Kind::Medium(_, media)) => (from.p, media),
+        (None, _) => (from.p, Media::default()),
     };
     out.rays += 1;
     out.shadow_rays += 1;

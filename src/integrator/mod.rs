@@ -35,6 +35,7 @@ pub(crate) struct Context<'a> {
 }
 
 pub use aov::Aov;
+pub use bdpt::MAX_DEPTH as MAX_BIDIRECTIONAL_DEPTH;
 pub use drt::grid_shape;
 pub use kernel::{PathOutput, View, is_spectral, sample_pixel, sample_pixels, simulated_effects};
 pub use scatter::Sampling;

@@ -114,6 +114,8 @@ crate::params! {
         allow_expensive: bool = false, ["allow-expensive", "render anyway (over the ray budget)", Estimator, Domain::Switch, |s| distribution(s) && s.rays_per_sample_bound() > DRT_RAY_BUDGET],
         /// Vertex merging's radius at the first iteration, as a share of the scene's bounding-sphere radius; it shrinks as i^-1/8 over iterations i (Knaus and Zwicker's alpha = 3/4).
         vcm_radius: f32 = 0.002, ["vcm-radius", "merging radius (share of the scene's)", Estimator, Domain::Float { min: 1e-6, max: 1.0, optional: false }, |s| s.integrator == Integrator::Vcm],
+        /// Bidirectional path tracing with only the connections of this many light-subpath vertices, each unweighted: one strategy's own estimate (pbrt-v4's strategy images), for checking and teaching; off: every strategy, weighted.
+        strategy: Option<u32> = None, ["strategy", "one strategy (light vertices)", Estimator, Domain::Int { min: 0, max: 33, optional: true }, |s| s.integrator == Integrator::Bdpt],
         /// Draw directions in proportion to the BSDF (on) or uniformly over the hemisphere (off).
         importance_sampling: bool = true, ["importance", "importance sampling", Estimator, Domain::Switch, unidirectional],
         /// Transport in RGB or at sampled wavelengths (auto: spectral for dispersive scenes).

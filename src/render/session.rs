@@ -408,13 +408,17 @@ fn check_job(job: &Job, limits: &Limits) -> Result<(), SessionError> {
                 job.scene.name
             ))))
         };
-        if job.scene.features.media {
-            return refuse("does not simulate scattering media yet");
-        }
         if s.noise_threshold.is_some() {
             return refuse(
                 "adds light to any pixel, so a pixel's noise cannot stop its samples (no --noise-threshold)",
             );
+        }
+        if s.max_depth > crate::integrator::MAX_BIDIRECTIONAL_DEPTH {
+            return refuse(&format!(
+                "follows paths of at most {} bounces (--max-depth {})",
+                crate::integrator::MAX_BIDIRECTIONAL_DEPTH,
+                s.max_depth
+            ));
         }
         if job.window.is_some() {
             return refuse(
