@@ -465,3 +465,42 @@ fn each_strategy_alone_estimates_the_paths_it_can_make() {
         common::assert_block_means_agree(&blocks, &reference, 0..3, 0.0, z_max, &format!("strategy s = {s}"));
     }
 }
+
+#[test]
+fn the_white_furnace_holds_under_bdpt_and_vcm() {
+    // Inside an emitting sphere of Le 0.5 and albedo 0.5, with a white mirror ball and a
+    // clear glass ball: radiance 1 - 0.5^(d + 1) everywhere at max depth d (a little less
+    // through the balls, whose delta bounces count: 1 - 0.5^(d - 1) at worst).
+    let enclosure = Material { emissive: Vec3::splat(0.5), ..Material::lambert("furnace", Vec3::splat(0.5)) };
+    let mirror = Material { metallic: 1.0, roughness: 0.0, ..Material::lambert("mirror", Vec3::ONE) };
+    let desc = SceneDesc {
+        meshes: vec![
+            uv_sphere(Vec3::ZERO, 1.0, 24, 48, true, 0),
+            uv_sphere(Vec3::new(0.25, 0.0, -0.5), 0.2, 16, 32, false, 1),
+            uv_sphere(Vec3::new(-0.25, 0.0, -0.5), 0.2, 16, 32, false, 2),
+        ],
+        materials: vec![enclosure, mirror, Material::glass("glass", 1.5, Some(Vec3::ZERO))],
+        ..SceneDesc::default()
+    };
+    let scene = Arc::new(Scene::build(desc));
+    let camera = Camera::look_at(Vec3::ZERO, Vec3::new(0.0, 0.0, -1.0), 0.9);
+    let depth = 12;
+    let expected = 1.0 - 0.5f64.powi(depth as i32 + 1);
+    for integrator in [Integrator::Bdpt, Integrator::Vcm] {
+        let s = Settings { width: 24, height: 24, ..settings(integrator, 8, depth) };
+        let renders: Vec<(DVec3, DVec3)> = (1..=8)
+            .map(|seed| {
+                let snap = common::render(&scene, camera, Settings { seed, ..s }, None);
+                assert_eq!(snap.rejected, 0, "NaN/Inf samples");
+                (common::image_mean(&snap).0, DVec3::ZERO)
+            })
+            .collect();
+        for c in 0..3 {
+            let (mean, se) = mean_se(&renders, |r| r.0[c]);
+            assert!(
+                (mean - expected).abs() < 4.5 * se + 1e-3,
+                "{integrator:?} channel {c}: {mean:.5} (se {se:.5}), expected {expected:.5}"
+            );
+        }
+    }
+}
