@@ -83,18 +83,23 @@ fn bdpt_agrees_with_the_path_tracer_through_mirrors_and_glass() {
     agrees_with_the_path_tracer(&scene, camera, 8, "glass box");
 }
 
-/// A grey floor, a smooth glass ball above it, and a point light above the ball.
-fn point_light_over_glass() -> (Arc<Scene>, Camera) {
-    let light = PunctualLight {
+/// A white point light of intensity 20 at `position`.
+fn bulb(position: Vec3) -> PunctualLight {
+    PunctualLight {
         name: "bulb".into(),
         kind: PunctualKind::Point,
-        position: Vec3::new(0.0, 3.0, 0.0),
+        position,
         direction: -Vec3::Y,
         color: Vec3::ONE,
         intensity: 20.0,
         range: None,
         source: None,
-    };
+    }
+}
+
+/// A grey floor, a smooth glass ball above it, and a point light above the ball.
+fn point_light_over_glass() -> (Arc<Scene>, Camera) {
+    let light = bulb(Vec3::new(0.0, 3.0, 0.0));
     let desc = SceneDesc {
         name: "caustic".into(),
         meshes: vec![
@@ -398,16 +403,7 @@ fn light_tracing_does_not_show_the_camera_the_back_of_a_single_sided_surface() {
     // A single-sided slab under a point light, seen from above through its culled top: the
     // camera sees the slab's unlit inside, black. Light tracing reaches the lit top from the
     // light; the camera must not see it there either.
-    let light = PunctualLight {
-        name: "bulb".into(),
-        kind: PunctualKind::Point,
-        position: Vec3::new(0.0, 2.0, 0.0),
-        direction: -Vec3::Y,
-        color: Vec3::ONE,
-        intensity: 20.0,
-        range: None,
-        source: None,
-    };
+    let light = bulb(Vec3::new(0.0, 2.0, 0.0));
     let slab = Material { double_sided: false, ..Material::lambert("slab", Vec3::splat(0.7)) };
     let desc = SceneDesc {
         meshes: vec![cuboid(Vec3::new(-2.0, -1.1, -2.0), Vec3::new(2.0, -1.0, 2.0), true, 0)],

@@ -1,22 +1,10 @@
 """Writes prism.gltf: a flint-glass prism (KHR_materials_dispersion, V_d = 20) in front of a
 thin white emissive line on a faintly glowing grey wall; the camera sees the line through the prism,
 split into its spectrum. Run from the repository root: python3 docs/scenes/make_prism.py"""
-import base64, json, math, struct
+import math, sys
+from flat_meshes import outward as closed
+import flat_meshes
 
-def sub(a, b): return [a[i] - b[i] for i in range(3)]
-def cross(a, b): return [a[1]*b[2]-a[2]*b[1], a[2]*b[0]-a[0]*b[2], a[0]*b[1]-a[1]*b[0]]
-def dot(a, b): return sum(a[i]*b[i] for i in range(3))
-
-def closed(tris, centre):
-    """Winds each triangle so that its normal points away from `centre` (outwards)."""
-    out = []
-    for a, b, c in tris:
-        n = cross(sub(b, a), sub(c, a))
-        mid = [(a[i] + b[i] + c[i]) / 3 for i in range(3)]
-        out.append((a, b, c) if dot(n, sub(mid, centre)) > 0 else (a, c, b))
-    return out
-
-import sys
 LINE_X = float(sys.argv[1]) if len(sys.argv) > 1 else 3.23
 # The prism: apex angle 30 degrees, edges along y, turned so the view crosses it near
 # minimum deviation.
@@ -54,17 +42,5 @@ gltf = {"asset": {"version": "2.0", "generator": "docs/scenes/make_prism.py (Luc
              "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 20.0}}},
             {"name": "wall", "emissiveFactor": [0.04, 0.04, 0.04], "pbrMetallicRoughness": {"baseColorFactor": [0.3, 0.3, 0.3, 1], "metallicFactor": 0.0, "roughnessFactor": 1.0}},
         ]}
-blob = b""
-for name, tris, material in [("prism", prism, 0), ("line", line, 1), ("wall", wall, 2)]:
-    points = [p for t in tris for p in t]
-    data = b"".join(struct.pack("<3f", *p) for p in points)
-    gltf["bufferViews"].append({"buffer": 0, "byteOffset": len(blob), "byteLength": len(data), "target": 34962})
-    blob += data
-    gltf["accessors"].append({"bufferView": len(gltf["bufferViews"]) - 1, "componentType": 5126, "count": len(points), "type": "VEC3",
-                              "min": [min(p[i] for p in points) for i in range(3)], "max": [max(p[i] for p in points) for i in range(3)]})
-    gltf["meshes"].append({"name": name, "primitives": [{"attributes": {"POSITION": len(gltf["accessors"]) - 1}, "material": material}]})
-    gltf["nodes"].append({"name": name, "mesh": len(gltf["meshes"]) - 1})
-gltf["nodes"].append({"name": "camera", "camera": 0})
-gltf["scenes"][0]["nodes"] = list(range(len(gltf["nodes"])))
-gltf["buffers"].append({"byteLength": len(blob), "uri": "data:application/octet-stream;base64," + base64.b64encode(blob).decode()})
-json.dump(gltf, open("docs/scenes/prism.gltf", "w"), indent=1)
+flat_meshes.write(gltf, [("prism", prism, 0), ("line", line, 1), ("wall", wall, 2)],
+                  [{"name": "camera", "camera": 0}], "docs/scenes/prism.gltf")

@@ -4,7 +4,9 @@ leaves it fanned into its spectrum and falls on a white wall. A dim ceiling ligh
 No camera path can find the spectrum (a point light seen only through delta refractions):
 bidirectional path tracing's light tracing draws it. Run from the repository root:
 python3 docs/scenes/make_rainbow.py"""
-import base64, json, math, struct
+import math
+import flat_meshes
+from flat_meshes import dot, outward
 
 N_D, APEX = 1.7, math.radians(60)
 # Minimum deviation: the ray inside runs parallel to the base, at half the apex angle from
@@ -22,18 +24,6 @@ corners = [world(-SIDE / 2, -h / 3), world(SIDE / 2, -h / 3), world(0.0, 2 * h /
 entry = world(-SIDE / 4, h / 6)  # the middle of the entry face, at the inside ray's height
 incoming = (math.cos(phi + tilt), math.sin(phi + tilt))  # the beam's direction (x, z)
 LIGHT = [entry[0] - 3.0 * incoming[0], 0.0, entry[1] - 3.0 * incoming[1]]
-
-def sub(a, b): return [a[i] - b[i] for i in range(3)]
-def cross(a, b): return [a[1]*b[2]-a[2]*b[1], a[2]*b[0]-a[0]*b[2], a[0]*b[1]-a[1]*b[0]]
-def dot(a, b): return sum(a[i]*b[i] for i in range(3))
-
-def outward(tris, centre):
-    """Winds each triangle so that its normal points away from `centre`."""
-    out = []
-    for a, b, c in tris:
-        mid = [(a[i] + b[i] + c[i]) / 3 for i in range(3)]
-        out.append((a, b, c) if dot(cross(sub(b, a), sub(c, a)), sub(mid, centre)) > 0 else (a, c, b))
-    return out
 
 top = [[x, HALF_HEIGHT, z] for x, z in corners]
 bottom = [[x, -HALF_HEIGHT, z] for x, z in corners]
@@ -70,20 +60,12 @@ gltf = {"asset": {"version": "2.0", "generator": "docs/scenes/make_rainbow.py (L
             {"name": "wall", "pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.8, 0.8, 1], "metallicFactor": 0.0, "roughnessFactor": 1.0}},
             {"name": "ceiling", "emissiveFactor": [0.3, 0.3, 0.3], "pbrMetallicRoughness": {"baseColorFactor": [0, 0, 0, 1], "metallicFactor": 0.0}},
         ]}
-blob = b""
-for name, tris, material in [("prism", prism, 0), ("wall", wall, 1), ("ceiling", ceiling, 2)]:
-    points = [p for t in tris for p in t]
-    data = b"".join(struct.pack("<3f", *p) for p in points)
-    gltf["bufferViews"].append({"buffer": 0, "byteOffset": len(blob), "byteLength": len(data), "target": 34962})
-    blob += data
-    gltf["accessors"].append({"bufferView": len(gltf["bufferViews"]) - 1, "componentType": 5126, "count": len(points), "type": "VEC3",
-                              "min": [min(p[i] for p in points) for i in range(3)], "max": [max(p[i] for p in points) for i in range(3)]})
-    gltf["meshes"].append({"name": name, "primitives": [{"attributes": {"POSITION": len(gltf["accessors"]) - 1}, "material": material}]})
-    gltf["nodes"].append({"name": name, "mesh": len(gltf["meshes"]) - 1})
 # The spot shines down its node's -z: turn it along the beam.
-gltf["nodes"].append({"name": "beam", "translation": LIGHT, "rotation": look_at(LIGHT, [entry[0], 0.0, entry[1]]),
-                      "extensions": {"KHR_lights_punctual": {"light": 0}}})
-gltf["nodes"].append({"name": "camera", "camera": 0, "translation": eye, "rotation": look_at(eye, target)})
-gltf["scenes"][0]["nodes"] = list(range(len(gltf["nodes"])))
-gltf["buffers"].append({"byteLength": len(blob), "uri": "data:application/octet-stream;base64," + base64.b64encode(blob).decode()})
-json.dump(gltf, open("docs/scenes/rainbow.gltf", "w"), indent=1)
+flat_meshes.write(
+    gltf,
+    [("prism", prism, 0), ("wall", wall, 1), ("ceiling", ceiling, 2)],
+    [{"name": "beam", "translation": LIGHT, "rotation": look_at(LIGHT, [entry[0], 0.0, entry[1]]),
+      "extensions": {"KHR_lights_punctual": {"light": 0}}},
+     {"name": "camera", "camera": 0, "translation": eye, "rotation": look_at(eye, target)}],
+    "docs/scenes/rainbow.gltf",
+)

@@ -105,6 +105,7 @@ impl Photons {
     pub(crate) fn trace(cx: Context, (width, height): (u32, u32), index: u64, rays: &mut u64) -> Self {
         let settings = cx.settings;
         let max = (settings.max_depth as usize + 2).min(super::bdpt::MAX_VERTICES) - 1;
+        let iteration = wavelengths(cx, index);
         let rows: Vec<(Vec<LightVertex>, u64)> = (0..height)
             .into_par_iter()
             .map(|y| {
@@ -113,7 +114,7 @@ impl Photons {
                 for x in 0..width {
                     path.clear();
                     let mut sampler = light_sampler(cx, UVec2::new(x, y), index);
-                    let mut wl = wavelengths(cx, index);
+                    let mut wl = iteration;
                     light_subpath(cx, &mut sampler, max, &mut path, (&mut out, &mut wl));
                     let hero_only = wl.secondary_terminated();
                     row.extend(path.iter().enumerate().map(|(i, v)| LightVertex::of(v, i, hero_only)));
