@@ -19,8 +19,13 @@
 //! to 1. Light subpaths start in the volumes around their light. Absorbing volumes
 //! attenuate every segment and connection;
 //! surfaces crossed straight through (null lobes) are passed without a vertex, as the path
-//! tracer passes them. Subpaths have at most `max_depth` bounces; there is no roulette, so
-//! that every strategy's density is the product of its sampling densities.
+//! tracer passes them. Subpaths have at most `max_depth` bounces, and each surface vertex
+//! continues its subpath with a probability of its own, its albedo (Russian roulette): a
+//! property of the vertex alone, whichever subpath reaches it, so that every density of a
+//! vertex sampled from another carries the other's survival, both ways, and the weights stay
+//! those of the true densities (SmallVCM folds the continuation probability into its
+//! densities likewise). Without it every subpath ran to `max_depth` in a closed room and a
+//! sample traced 4x the rays.
 //!
 //! The densities of a rough transmission are those of the side the path arrives on; the
 //! reverse density through a rough refracting interface is the BSDF's density from the
@@ -83,6 +88,9 @@ pub(super) struct PathVertex<'a> {
     pdf_rev: f32,
     /// A delta lobe scattered the subpath here: no connection can end at it.
     delta: bool,
+    /// Probability that a subpath, either one, goes on from here (Russian roulette; 1 at the
+    /// camera, at lights and in media).
+    survival: f32,
     /// A surface that emits towards the side the subpath arrived from.
     emissive: bool,
     /// What the subpath carries: radiance (camera) or importance (light).
@@ -140,7 +148,19 @@ impl<'a> PathVertex<'a> {
 
     /// The camera or light vertex a subpath starts at.
     fn end(kind: Kind<'a>, p: Vec3, n: Vec3, beta: Spectrum, mode: TransportMode) -> Self {
-        PathVertex { kind, p, n, surface: None, beta, pdf_fwd: 0.0, pdf_rev: 0.0, delta: false, emissive: false, mode }
+        PathVertex {
+            kind,
+            p,
+            n,
+            surface: None,
+            beta,
+            pdf_fwd: 0.0,
+            pdf_rev: 0.0,
+            delta: false,
+            survival: 1.0,
+            emissive: false,
+            mode,
+        }
     }
 }
 
@@ -271,10 +291,10 @@ fn merge_weight(
     let wo = z.towards(before);
     // The merged vertex, reached from the light side, sampling the camera's previous vertex;
     // the camera's density of the merged vertex; the merged vertex sampling the light's.
-    cam[t - 2].rev = z.convert(surface_pdf(cx, zs, wi, wo, wl), before);
+    cam[t - 2].rev = z.convert(surface_pdf(cx, zs, wi, wo, wl) * z.survival, before);
     lig[s - 1].rev = z.pdf_fwd;
     if s >= 2 {
-        let (prev, pdf) = (&light[s - 2], surface_pdf(cx, zs, wo, wi, wl));
+        let (prev, pdf) = (&light[s - 2], surface_pdf(cx, zs, wo, wi, wl) * z.survival);
         lig[s - 2].rev = if prev.infinite { pdf } else { area_density(pdf, light[s - 1].p, prev.p, prev.n) };
     }
     let connection = if cam[t - 2].delta { 0.0 } else { 1.0 };
@@ -442,6 +462,7 @@ fn walk<'a>(
             pdf_fwd: 0.0,
             pdf_rev: 0.0,
             delta: false,
+            survival: survival(&vertex),
             emissive,
             mode,
         };
@@ -451,7 +472,7 @@ fn walk<'a>(
             path.push(v);
             return;
         }
-        let (u_lobe, u) = (sampler.next_1d(), sampler.next_2d());
+        let (u_lobe, u, u_rr) = (sampler.next_1d(), sampler.next_2d(), sampler.next_1d());
         let Some(bs) = vertex.bsdf.sample(vertex.wo, u_lobe, u, mode) else {
             path.push(v);
             return;
@@ -474,7 +495,7 @@ fn walk<'a>(
         }
         travelled = 0.0;
         let wo = vertex.frame.to_world(vertex.wo);
-        beta *= wl.reflectance(bs.weight);
+        beta *= wl.reflectance(bs.weight) / v.survival;
         if mode == TransportMode::Importance {
             beta *= shading_correction(&vertex, wo, d);
         }
@@ -482,19 +503,28 @@ fn walk<'a>(
             v.delta = true;
             pdf = 0.0;
         } else {
-            pdf = bs.pdf;
+            pdf = bs.pdf * v.survival;
         }
-        let rev = if v.delta { 0.0 } else { surface_pdf(cx, &vertex, d, wo, wl) };
+        let rev = if v.delta { 0.0 } else { surface_pdf(cx, &vertex, d, wo, wl) * v.survival };
+        let ends = u_rr >= v.survival;
         path.push(v);
         let k = path.len() - 2;
         let (before, last) = path.split_at_mut(k + 1);
         before[k].pdf_rev = last[0].convert(rev, &before[k]);
         media = vertex.media_after(scene, crosses);
         ray = Ray { o: origin, d, tmax: f32::INFINITY };
-        if beta.is_black() {
+        if ends || beta.is_black() {
             return;
         }
     }
+}
+
+/// Probability that a subpath goes on from surface vertex `v`: its albedo's largest
+/// component (at normal incidence, so that it is the same whichever side and direction a
+/// subpath arrives from), kept from 0.1 (a black glossy coat still reflects) to 0.995 (a
+/// clear glass ball's internal reflections still end).
+fn survival(v: &Vertex) -> f32 {
+    v.bsdf.albedo(Vec3::Z).max_element().clamp(0.1, 0.995)
 }
 
 /// The environment light (its map is the scene's).
@@ -564,7 +594,7 @@ fn density(
         },
         Kind::Surface => {
             let (Some(s), Some(prev)) = (v.surface.as_ref(), prev) else { return 0.0 };
-            v.convert(surface_pdf(cx, s, v.towards(prev), v.towards(next), wl), next)
+            v.convert(surface_pdf(cx, s, v.towards(prev), v.towards(next), wl) * v.survival, next)
         }
     }
 }
@@ -634,7 +664,7 @@ fn connect(
     (sampler, eta, wl): (&mut Sampler, f32, &Wavelengths),
     out: &mut PathOutput,
 ) -> Option<(Spectrum, Option<Vec2>)> {
-    let pt = camera[t - 1];
+    let pt = &camera[t - 1];
     if t > 1 && s != 0 && pt.is_infinite() {
         return None;
     }
@@ -645,10 +675,10 @@ fn connect(
         if !pt.is_light() {
             return None;
         }
-        pt.beta * emitted(cx, &pt, pt.towards(&camera[t - 2]), wl)
+        pt.beta * emitted(cx, pt, pt.towards(&camera[t - 2]), wl)
     } else if t == 1 {
         // Light tracing: the camera sees the light subpath's vertex s - 1.
-        let qs = light[s - 1];
+        let qs = &light[s - 1];
         if !qs.connectible() || qs.is_infinite() {
             return None;
         }
@@ -667,12 +697,12 @@ fn connect(
         let pdf = dist2 / view.rays.cos(-wi);
         let camera_vertex =
             PathVertex::end(Kind::Camera, origin, Vec3::ZERO, Spectrum::splat(we / pdf), TransportMode::Radiance);
-        let f = vertex_f(&qs, light.get(s.wrapping_sub(2)), wi, wl)?;
+        let f = vertex_f(qs, light.get(s.wrapping_sub(2)), wi, wl)?;
         let l = qs.beta * f * camera_vertex.beta;
         if l.is_black() {
             return None;
         }
-        let tr = visibility(cx, &qs, (origin, LightTarget::Point(origin)), (sampler, wl), out)?;
+        let tr = visibility(cx, qs, (origin, LightTarget::Point(origin)), (sampler, wl), out)?;
         sampled = Some(camera_vertex);
         film = Some(position);
         l * tr
@@ -693,25 +723,25 @@ fn connect(
         let radiance = wl.illuminant(ls.radiance);
         let mut v = PathVertex::end(Kind::Light(light, pmf), p, n, radiance / ls.pdf, TransportMode::Importance);
         v.pdf_fwd = light_origin_density(cx, &v);
-        let f = vertex_f(&pt, Some(&camera[t - 2]), ls.wi, wl)?;
+        let f = vertex_f(pt, Some(&camera[t - 2]), ls.wi, wl)?;
         let l = pt.beta * f * v.beta;
         if l.is_black() {
             return None;
         }
-        let tr = visibility(cx, &pt, (pt.p + ls.wi, ls.target), (sampler, wl), out)?;
+        let tr = visibility(cx, pt, (pt.p + ls.wi, ls.target), (sampler, wl), out)?;
         sampled = Some(v);
         l * tr
     } else {
         // Both subpaths joined by a segment.
-        let (qs, pt) = (light[s - 1], camera[t - 1]);
+        let qs = &light[s - 1];
         if !qs.connectible() || !pt.connectible() || qs.is_infinite() {
             return None;
         }
         let d = qs.p - pt.p;
         let dist2 = d.length_squared();
         let w = d / dist2.sqrt();
-        let f_pt = vertex_f(&pt, Some(&camera[t - 2]), w, wl)?;
-        let f_qs = vertex_f(&qs, light.get(s.wrapping_sub(2)), -w, wl)?;
+        let f_pt = vertex_f(pt, Some(&camera[t - 2]), w, wl)?;
+        let f_qs = vertex_f(qs, light.get(s.wrapping_sub(2)), -w, wl)?;
         let l = qs.beta * f_qs * f_pt * pt.beta / dist2;
         if l.is_black() {
             return None;
@@ -720,7 +750,7 @@ fn connect(
             Some(v) => LightTarget::Surface { p: v.surface.p, error: v.surface.p_error, n: qs.n },
             None => LightTarget::Point(qs.p),
         };
-        l * visibility(cx, &pt, (qs.p, target), (sampler, wl), out)?
+        l * visibility(cx, pt, (qs.p, target), (sampler, wl), out)?
     };
     if l.is_black() || !l.is_finite() {
         return None;
@@ -728,7 +758,7 @@ fn connect(
     if one_strategy(cx).is_some() {
         return Some((l, film));
     }
-    let weight = mis_weight((cx, view, wl), (light, s), (camera, t), sampled, eta);
+    let weight = mis_weight((cx, view, wl), (light, s), (camera, t), sampled.as_ref(), eta);
     Some((l * weight, film))
 }
 
@@ -788,7 +818,7 @@ fn mis_weight(
     (cx, view, wl): (Context, &View, &Wavelengths),
     (light, s): (&[PathVertex], usize),
     (camera, t): (&[PathVertex], usize),
-    sampled: Option<PathVertex>,
+    sampled: Option<&PathVertex>,
     eta: f32,
 ) -> f32 {
     if s + t == 2 {
@@ -803,8 +833,8 @@ fn mis_weight(
     for (d, v) in lig.iter_mut().zip(&light[..s]) {
         *d = v.densities();
     }
-    let mut qs = (s > 0).then(|| light[s - 1]);
-    let mut pt = camera[t - 1];
+    let mut qs = (s > 0).then(|| &light[s - 1]);
+    let mut pt = &camera[t - 1];
     if s == 1 {
         qs = sampled;
         if let Some(q) = qs {
@@ -821,21 +851,21 @@ fn mis_weight(
     }
     // pt's reverse density: qs sampling pt (or the light subpath starting at pt).
     cam[t - 1].rev = match qs {
-        Some(q) => density((cx, view, wl), &q, if s > 1 { Some(&light[s - 2]) } else { None }, &pt),
-        None => light_origin_density(cx, &pt),
+        Some(q) => density((cx, view, wl), q, if s > 1 { Some(&light[s - 2]) } else { None }, pt),
+        None => light_origin_density(cx, pt),
     };
     // pt's predecessor, from pt.
     if t > 1 {
         cam[t - 2].rev = match qs {
-            Some(q) => density((cx, view, wl), &pt, Some(&q), &camera[t - 2]),
-            None => light_density(cx, &pt, &camera[t - 2]),
+            Some(q) => density((cx, view, wl), pt, Some(q), &camera[t - 2]),
+            None => light_density(cx, pt, &camera[t - 2]),
         };
     }
     if let Some(q) = qs {
         // qs's reverse density: pt sampling qs; and qs's predecessor, from qs.
-        lig[s - 1].rev = density((cx, view, wl), &pt, if t > 1 { Some(&camera[t - 2]) } else { None }, &q);
+        lig[s - 1].rev = density((cx, view, wl), pt, if t > 1 { Some(&camera[t - 2]) } else { None }, q);
         if s > 1 {
-            lig[s - 2].rev = density((cx, view, wl), &q, Some(&pt), &light[s - 2]);
+            lig[s - 2].rev = density((cx, view, wl), q, Some(pt), &light[s - 2]);
         }
     }
     let origin_delta = match (s, qs) {
