@@ -175,6 +175,42 @@ fn vcm_merges_carry_the_right_energy_at_a_wide_radius() {
 }
 
 #[test]
+fn vcm_converges_to_bdpt_as_its_radius_shrinks() {
+    // Merging at a radius r blurs the light it carries, a bias growing as r^2 (and as the
+    // merges' weight, which falls with r too). At a wide radius (10% of the scene's) held
+    // fixed (alpha 1) it shows: blocks lie far off a long BDPT render. Shrinking from there
+    // (alpha 1/4: r_i^2 = r^2 i^-3/4 at iteration i), the bias left in N iterations is at
+    // most the fixed radius's times the mean of i^-3/4 (1/16 at 256): each block must lie
+    // between BDPT's and that, within its noise. The bias vanishes with the radius, which is
+    // what makes VCM consistent.
+    let scene = Arc::new(Scene::build(builtin::cornell_box()));
+    let camera = scene.default_camera(1.0);
+    let reference = common::blocks(&common::render(&scene, camera, settings(Integrator::Bdpt, 4096, 5), None), BLOCK);
+    let z_max = common::sidak_z(1e-3, (SIZE / BLOCK).pow(2) as usize * 3);
+    let (iterations, alpha) = (256u32, 0.25f64);
+    let fixed = Settings { vcm_radius: 0.1, vcm_alpha: 1.0, ..settings(Integrator::Vcm, iterations, 5) };
+    let fixed_blocks = independent_blocks(&scene, camera, fixed, 6);
+    let biased = common::assert_block_means_agree(&fixed_blocks, &reference, 0..3, 0.0, f64::INFINITY, "fixed");
+    assert!(biased > 10.0 * z_max, "at a fixed radius the worst block is only {biased:.1} standard errors off");
+    let share = (1..=iterations).map(|i| (i as f64).powf(alpha - 1.0)).sum::<f64>() / iterations as f64;
+    let shrinking = Settings { vcm_alpha: alpha as f32, ..fixed };
+    let vcm = independent_blocks(&scene, camera, shrinking, 6);
+    for (b, ((v, r), f)) in vcm.iter().zip(&reference).zip(&fixed_blocks).enumerate() {
+        for c in 0..3 {
+            let bound = share * (f.0[c] - r.0[c]);
+            let se = (v.1[c] + r.1[c] + share * share * f.1[c]).sqrt();
+            let (low, high) = (bound.min(0.0) - z_max * se, bound.max(0.0) + z_max * se);
+            let bias = v.0[c] - r.0[c];
+            assert!(
+                (low..=high).contains(&bias),
+                "block {b} channel {c}: shrinking, {bias:.5} off BDPT; allowed {low:.5}..{high:.5} (fixed: {:.5})",
+                f.0[c] - r.0[c]
+            );
+        }
+    }
+}
+
+#[test]
 fn vcm_sees_the_caustic_through_the_glass_that_casts_it() {
     // Looking down through the ball at the floor under it: light from the point light
     // crosses the ball, lands on the floor and crosses the ball again to the camera. Every

@@ -21,11 +21,6 @@ const LIGHT_STREAM: u64 = 0x6c69_6768_7470_6174;
 /// Seed offset of the iterations' wavelengths.
 const WAVELENGTH_STREAM: u64 = 0x7761_7665_6c65_6e67;
 
-/// The radius shrinks as i^((alpha - 1) / 2) over iterations i = 1, 2, ... (Knaus and
-/// Zwicker 2011), which keeps the estimate consistent: its bias vanishes and its variance
-/// stays bounded.
-const ALPHA: f32 = 0.75;
-
 /// A subpath vertex's densities per unit area (per solid angle for light at infinity), as
 /// its subpath sampled it (`fwd`) and as the other direction would have (`rev`), with
 /// whether a connection cannot end there (`delta`) and whether it can be merged at.
@@ -160,10 +155,12 @@ pub(crate) fn wavelengths(cx: Context, index: u64) -> Wavelengths {
 }
 
 /// The merging radius at iteration (sample index) `index`: the setting's share of the
-/// scene's radius, shrunk as (index + 1)^((alpha - 1) / 2).
+/// scene's radius, shrunk as (index + 1)^((alpha - 1) / 2) (Knaus and Zwicker 2011), which
+/// keeps the estimate consistent for alpha < 1: its bias vanishes and its variance stays
+/// bounded.
 pub(crate) fn radius(cx: Context, index: u64) -> f32 {
     let r0 = cx.settings.vcm_radius * cx.scene.radius();
-    r0 * ((index + 1) as f32).powf((ALPHA - 1.0) / 2.0)
+    r0 * ((index + 1) as f32).powf((cx.settings.vcm_alpha - 1.0) / 2.0)
 }
 
 /// A hashed grid of cells of twice the radius over the mergeable vertices (counting sort by

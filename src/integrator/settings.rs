@@ -112,8 +112,10 @@ crate::params! {
         directions: Directions = Directions::Stratified, ["directions", "direction scheme", Estimator, Domain::Choice(Directions::CHOICES), distribution],
         /// Let distribution ray tracing exceed its budget of rays per sample.
         allow_expensive: bool = false, ["allow-expensive", "render anyway (over the ray budget)", Estimator, Domain::Switch, |s| distribution(s) && s.rays_per_sample_bound() > DRT_RAY_BUDGET],
-        /// Vertex merging's radius at the first iteration, as a share of the scene's bounding-sphere radius; it shrinks as i^-1/8 over iterations i (Knaus and Zwicker's alpha = 3/4).
+        /// Vertex merging's radius at the first iteration, as a share of the scene's bounding-sphere radius; it shrinks over iterations by `vcm-alpha`.
         vcm_radius: f32 = 0.002, ["vcm-radius", "merging radius (share of the scene's)", Estimator, Domain::Float { min: 1e-6, max: 1.0, optional: false }, |s| s.integrator == Integrator::Vcm],
+        /// How fast the merging radius shrinks (Knaus and Zwicker's alpha): its square goes as i^(alpha - 1) over iterations i, so that merging's bias vanishes; 1 keeps the radius fixed (biased, for measuring the bias), smaller shrinks faster (less bias, more noise).
+        vcm_alpha: f32 = 0.75, ["vcm-alpha", "radius shrink (alpha)", Estimator, Domain::Float { min: 0.01, max: 1.0, optional: false }, |s| s.integrator == Integrator::Vcm],
         /// Bidirectional path tracing with only the connections of this many light-subpath vertices, each unweighted: one strategy's own estimate (pbrt-v4's strategy images), for checking and teaching; off: every strategy, weighted.
         strategy: Option<u32> = None, ["strategy", "one strategy (light vertices)", Estimator, Domain::Int { min: 0, max: 33, optional: true }, |s| s.integrator == Integrator::Bdpt],
         /// Draw directions in proportion to the BSDF (on) or uniformly over the hemisphere (off).
