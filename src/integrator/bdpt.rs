@@ -546,12 +546,19 @@ fn escaped_transmittance(cx: Context, media: &Media, wl: &Wavelengths) -> Spectr
 
 /// Veach's correction of importance transported with shading normals (thesis eq. 5.17):
 /// |wo.ns| |wi.ng| / (|wo.ng| |wi.ns|), for world directions `wo` (back along the path)
-/// and `wi` (onwards).
+/// and `wi` (onwards), bounded by `MAX_SHADING_CORRECTION`.
 fn shading_correction(v: &Vertex, wo: Vec3, wi: Vec3) -> f32 {
     let (ns, ng) = (v.frame.n, v.surface.ng);
     let den = wo.dot(ng).abs() * wi.dot(ns).abs();
-    if den == 0.0 { 0.0 } else { wo.dot(ns).abs() * wi.dot(ng).abs() / den }
+    if den == 0.0 { 0.0 } else { (wo.dot(ns).abs() * wi.dot(ng).abs() / den).min(MAX_SHADING_CORRECTION) }
 }
+
+/// Bound of the shading-normal correction. It grows without bound as light arrives grazing
+/// the geometric surface while the shading normal faces it, and there single light-traced
+/// samples carried the image: GlassVaseFlowers' thin petals, 128x128 at 1,312 spp, RMSE 0.62
+/// against a path-traced reference with the correction unbounded, 0.044 bounded at 10 or at
+/// 2 alike. Bounded, BDPT is biased only for light within a few degrees of such a surface.
+const MAX_SHADING_CORRECTION: f32 = 10.0;
 
 /// Solid-angle density with which the BSDF at `v` samples world direction `wi` for light
 /// arriving from world direction `wo` (both unit, pointing away): from the side `wo` lies
