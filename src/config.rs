@@ -67,7 +67,10 @@ pub struct Edit {
 }
 
 impl ViewFile {
-    /// Reads and validates a view file; errors are one line and name the file.
+    /// Reads and validates a view file (every setting and display entry by its table's
+    /// range); errors are one line and name the file. A file cannot allow what only the user
+    /// may: `allow_expensive` comes back off, for the command line or the viewer to set (the
+    /// distribution ray tracer's ray budget is checked once they have).
     pub fn load(path: &Path) -> Result<Self, String> {
         let fail = |e: &dyn std::fmt::Display| format!("cannot read view file {}: {e}", path.display());
         let text = std::fs::read_to_string(path).map_err(|e| fail(&e))?;
@@ -77,7 +80,9 @@ impl ViewFile {
             let joined = path.parent().unwrap_or(Path::new("")).join(&*map);
             *map = std::fs::canonicalize(&joined).unwrap_or(joined);
         }
-        view.settings.validate().map_err(|e| fail(&e))?;
+        view.settings.allow_expensive = false;
+        crate::params::validate(crate::integrator::settings::SETTINGS, &view.settings).map_err(|e| fail(&e))?;
+        crate::params::validate(crate::film::tonemap::DISPLAY, &view.display).map_err(|e| fail(&e))?;
         view.environment.validate().map_err(|e| fail(&e))?;
         if let Some(c) = view.camera
             && !(c.position.is_finite() && c.rotation.is_finite() && c.yfov > 0.0 && c.yfov < std::f32::consts::PI)
@@ -255,6 +260,24 @@ mod tests {
         assert!(err.contains("line 3, column ") && !err.contains('\n'), "{err}");
         std::fs::write(&path, "[environment]\nintensity = -1.0\n").unwrap();
         assert!(ViewFile::load(&path).unwrap_err().contains("intensity"));
+        std::fs::write(&path, "[display]\nexposure = nan\n").unwrap();
+        let err = ViewFile::load(&path).unwrap_err();
+        assert!(err.contains("v.toml") && err.contains("exposure"), "{err}");
+    }
+
+    #[test]
+    fn a_view_file_cannot_allow_what_only_the_user_may() {
+        // Distribution ray tracing over its ray budget: the file's `allow_expensive` is
+        // dropped, so the settings are refused until the user allows them.
+        let dir = tempfile::Builder::new().prefix("lucent-view-expensive-").tempdir().unwrap();
+        let path = dir.path().join("v.toml");
+        let text =
+            "[settings]\nintegrator = \"distribution\"\nbranching = 4096\nmax_depth = 6\nallow_expensive = true\n";
+        std::fs::write(&path, text).unwrap();
+        let view = ViewFile::load(&path).unwrap();
+        assert!(!view.settings.allow_expensive);
+        assert!(view.settings.validate().unwrap_err().to_string().contains("allow it explicitly"));
+        assert!(Settings { allow_expensive: true, ..view.settings }.validate().is_ok());
     }
 
     #[test]

@@ -752,12 +752,15 @@ impl ViewerState {
     /// `view_path` (the resolution keeps following the window unless it is fixed).
     pub fn load_view(&mut self) -> Result<(), String> {
         let view = ViewFile::load(Path::new(&self.view_path))?;
+        // Whether to go over the ray budget is the user's choice here, not the file's.
+        let settings = Settings { allow_expensive: self.settings.allow_expensive, ..view.settings };
+        settings.validate().map_err(|e| format!("{}: {e}", self.view_path))?;
         self.apply_edits(&view)?;
         let aspect = self.aspect();
         if let Some(cam) = view.camera {
             self.camera = controller_for(&self.scene, Some(cam), aspect);
         }
-        self.settings = view.settings;
+        self.settings = settings;
         self.display = view.display;
         self.set_environment(view.environment)
     }
