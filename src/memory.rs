@@ -26,6 +26,23 @@ impl Default for Limits {
     }
 }
 
+/// The size of the file at `path` (symbolic links followed) if it is a regular file of at
+/// most `max` bytes: what every file a scene names must be before it is read, so that a FIFO
+/// or a device (/dev/zero) is refused in one line instead of blocking or reading without end.
+pub fn regular_file_size(path: &std::path::Path, max: u64) -> Result<u64, String> {
+    let meta = std::fs::metadata(path).map_err(|e| match e.kind() {
+        std::io::ErrorKind::NotFound => "no such file".to_string(),
+        _ => e.to_string(),
+    })?;
+    if !meta.is_file() {
+        return Err("not a regular file".into());
+    }
+    if meta.len() > max {
+        return Err(format!("{} is over the limit of {}", format_bytes(meta.len()), format_bytes(max)));
+    }
+    Ok(meta.len())
+}
+
 /// MemTotal from the text of /proc/meminfo, in bytes.
 fn mem_total(meminfo: &str) -> Option<u64> {
     let line = meminfo.lines().find(|l| l.starts_with("MemTotal:"))?;

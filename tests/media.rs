@@ -301,11 +301,16 @@ fn density_grids_load_from_openvdb_and_bad_grids_are_refused_in_one_line() {
     let dir = common::scratch("grids");
     let garbage = dir.join("garbage.vdb");
     std::fs::write(&garbage, b"not a vdb file at all").unwrap();
+    // A FIFO would block the read forever, and a device never ends: both are refused first.
+    let fifo = dir.join("fifo.vdb");
+    assert!(std::process::Command::new("mkfifo").arg(&fifo).status().unwrap().success());
     let cases = [
         (grid_asset("vector.vdb"), None, "vector.vdb"),
         (grid_asset("smoke.vdb"), Some("temperature"), "no grid \"temperature\""),
         (dir.join("missing.vdb"), None, "missing.vdb"),
         (garbage, None, "garbage.vdb"),
+        (fifo, None, "fifo.vdb: not a regular file"),
+        (std::path::PathBuf::from("/dev/zero"), None, "/dev/zero: not a regular file"),
     ];
     for (path, grid, needle) in cases {
         let err = DensityGrid::load_vdb(&path, grid).err().unwrap_or_else(|| panic!("{} loads", path.display()));

@@ -19,6 +19,9 @@ pub const PHI_DIFF: usize = 180;
 pub const SCALE: [f64; 3] = [1.0 / 1500.0, 1.15 / 1500.0, 1.66 / 1500.0];
 const CELLS: usize = THETA_HALF * THETA_DIFF * PHI_DIFF;
 
+/// Bytes of a MERL .binary file: three i32 dimensions, then three f64 per cell.
+const FILE_BYTES: usize = 12 + 3 * CELLS * 8;
+
 /// A loaded MERL BRDF with its half-vector sampling distribution.
 #[derive(Debug)]
 pub struct MerlTable {
@@ -55,9 +58,15 @@ fn cell(wo: Vec3, wi: Vec3) -> Option<usize> {
 }
 
 impl MerlTable {
-    /// Reads a MERL .binary file; the error is one line.
+    /// Reads a MERL .binary file (a regular file of the table's size, checked before it is
+    /// read); the error is one line.
     pub fn load(path: &Path) -> Result<Self, String> {
-        let bytes = std::fs::read(path).map_err(|e| format!("cannot read measured BRDF {}: {e}", path.display()))?;
+        let fail = |e: String| format!("cannot read measured BRDF {}: {e}", path.display());
+        let size = crate::memory::regular_file_size(path, FILE_BYTES as u64).map_err(fail)?;
+        let mut bytes = Vec::with_capacity(size as usize);
+        std::fs::File::open(path)
+            .and_then(|f| std::io::Read::read_to_end(&mut std::io::Read::take(f, size), &mut bytes))
+            .map_err(|e| fail(e.to_string()))?;
         Self::read(&bytes).map_err(|e| format!("measured BRDF {}: {e}", path.display()))
     }
 
@@ -165,5 +174,10 @@ mod tests {
         let mirror = 2.0 * wo.dot(h) * h - wo;
         assert_eq!(cell(wo, mirror).unwrap() / PHI_DIFF / THETA_DIFF, 0, "a mirror pair has theta_half 0");
         assert!(MerlTable::read(&[0; 12]).unwrap_err().contains("not a MERL BRDF"));
+        // A device or a folder is refused before a byte is read (/dev/zero never ends).
+        for path in ["/dev/zero", "/"] {
+            let err = MerlTable::load(Path::new(path)).unwrap_err();
+            assert!(err.contains("not a regular file") && err.contains(path), "{err}");
+        }
     }
 }

@@ -86,6 +86,7 @@ impl DensityGrid {
     /// Reads the float grid `grid` (the first float grid if None) of an OpenVDB file.
     pub fn load_vdb(path: &Path, grid: Option<&str>) -> Result<Self, String> {
         let fail = |e: &dyn std::fmt::Display| format!("cannot read density grid {}: {e}", path.display());
+        crate::memory::regular_file_size(path, crate::memory::Limits::from_machine().memory).map_err(|e| fail(&e))?;
         let file = std::fs::File::open(path).map_err(|e| fail(&e))?;
         let mut reader = vdb_rs::VdbReader::new(std::io::BufReader::new(file)).map_err(|e| fail(&e))?;
         let mut names = reader.available_grids();
