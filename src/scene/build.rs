@@ -66,9 +66,11 @@ impl Scene {
         if dropped.degenerate > 0 {
             warnings.push(format!("dropped {} degenerate (zero-area) triangles", dropped.degenerate));
         }
-        let singular = placements.iter().filter(|(_, t)| !geometry::invertible(t)).count();
+        let singular = placements.iter().filter(|(_, t)| !geometry::placeable(t)).count();
         if singular > 0 {
-            warnings.push(format!("dropped {singular} placements whose transform flattens the mesh (zero scale)"));
+            warnings.push(format!(
+                "dropped {singular} placements whose transform flattens the mesh (zero scale), is not finite or reaches beyond 1e18"
+            ));
         }
         let bounds =
             material_bounds.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), b| (lo.min(b.0), hi.max(b.1)));
@@ -257,7 +259,7 @@ fn add_triangles(
 /// for an empty box or a transform that flattens it.
 fn transformed_box(lo: Vec3, hi: Vec3, t: &Affine3A) -> (Vec3, Vec3) {
     let empty = (Vec3::INFINITY, Vec3::NEG_INFINITY);
-    if !lo.cmple(hi).all() || !geometry::invertible(t) {
+    if !lo.cmple(hi).all() || !geometry::placeable(t) {
         return empty;
     }
     (0..8).fold(empty, |(a, b), k| {

@@ -9,6 +9,7 @@ use glam::{Affine3A, Mat3A, Vec2, Vec3, Vec4, Vec4Swizzles};
 use std::cell::Cell;
 use std::time::Duration;
 
+use super::MAX_COORDINATE;
 use super::blas::{Blas, build_bvh, padded_box, reorder};
 use super::wide::{SlabRay, Wide, bits};
 use crate::math::float::gamma;
@@ -130,14 +131,14 @@ impl Geometry {
 
     /// `world`'s triangles in world space, and `meshes` each placed at the transforms
     /// `placements` gives (mesh index, object to world). Placements whose transform cannot
-    /// be inverted, or that name no mesh, are left out. Panics if there are more than
+    /// place a mesh (`placeable`), or that name no mesh, are left out. Panics if there are more than
     /// u32::MAX placed triangles (loaders refuse such scenes first).
     pub fn build_instanced(world: Triangles, meshes: Vec<Triangles>, placements: &[(u32, Affine3A)]) -> Self {
         let world = Blas::build(world);
         let meshes: Vec<Blas> = meshes.into_iter().map(Blas::build).collect();
         let instances: Vec<Instance> = placements
             .iter()
-            .filter(|(m, t)| meshes.get(*m as usize).is_some_and(|b| !b.is_empty()) && invertible(t))
+            .filter(|(m, t)| meshes.get(*m as usize).is_some_and(|b| !b.is_empty()) && placeable(t))
             .map(|&(mesh, to_world)| Instance {
                 mesh,
                 first: 0,
@@ -425,10 +426,13 @@ impl Instance {
     }
 }
 
-/// Whether the transform `t` can be inverted: its determinant is finite and not zero.
-pub fn invertible(t: &Affine3A) -> bool {
+/// Whether the transform `t` can place a mesh: every entry finite and within
+/// `MAX_COORDINATE` (as vertices must be), and invertible (its determinant finite and not
+/// zero). A NaN or 1e38 translation passed the determinant alone and broke the BVH build.
+pub fn placeable(t: &Affine3A) -> bool {
     let det = t.matrix3.determinant();
-    det != 0.0 && det.is_finite()
+    let entries = [t.matrix3.x_axis, t.matrix3.y_axis, t.matrix3.z_axis, t.translation];
+    det != 0.0 && det.is_finite() && entries.iter().all(|c| c.is_finite() && c.abs().max_element() <= MAX_COORDINATE)
 }
 
 /// World bounds of `mesh` placed by `instance`: its box's eight corners transformed.
@@ -487,14 +491,22 @@ mod tests {
             colors: [Vec4::ONE; 3],
             tangents: [(p[1] - p[0]).normalize().extend(1.0); 3],
         };
-        let mesh = Triangles { positions: vec![p], attrs: vec![attrs], extra: vec![extra] };
+        let mesh = || Triangles { positions: vec![p], attrs: vec![attrs], extra: vec![extra] };
         let turn = Quat::from_rotation_y(0.7);
         let placements = [
             (0, Affine3A::from_scale_rotation_translation(Vec3::new(0.2, 3.0, 1.0), turn, Vec3::X)),
             (0, Affine3A::from_scale_rotation_translation(Vec3::new(-1.0, 0.5, 2.0), turn, -Vec3::X)),
         ];
-        let g = Geometry::build_instanced(Triangles::default(), vec![mesh], &placements);
+        let g = Geometry::build_instanced(Triangles::default(), vec![mesh()], &placements);
         assert_eq!((g.len(), g.unique_len(), g.instance_count()), (2, 1, 2));
+        // Transforms that are not finite, or place the mesh beyond any coordinate a vertex
+        // may have, are left out (they broke the BVH build).
+        let hostile = [Vec3::NAN, Vec3::INFINITY, Vec3::splat(1e38)]
+            .map(|t| (0, Affine3A::from_translation(t)))
+            .into_iter()
+            .chain([(0, Affine3A::from_scale(Vec3::new(f32::NAN, 1.0, 1.0))), placements[0]]);
+        let kept = Geometry::build_instanced(Triangles::default(), vec![mesh()], &hostile.collect::<Vec<_>>());
+        assert_eq!((kept.len(), kept.instance_count()), (1, 1));
         for tri in 0..2 {
             let (q, a) = (g.positions(tri), g.attrs(tri));
             let cross = (q[1] - q[0]).cross(q[2] - q[0]).normalize();
