@@ -46,6 +46,7 @@ pub mod bsdf;
 pub mod cli;
 pub mod config;
 pub mod film;
+pub mod guard;
 pub mod integrator;
 pub mod loader;
 pub mod math;

@@ -12,11 +12,71 @@ pub struct Limits {
 const FALLBACK_MEMORY: u64 = 4 << 30;
 
 impl Limits {
-    /// Half the machine's physical memory (MemTotal in /proc/meminfo), or 4 GiB without it.
+    /// The tightest of what this process may still take: half the machine's physical
+    /// memory (MemTotal), the memory available now (MemAvailable), three quarters of the
+    /// address space left under RLIMIT_AS (thread stacks and allocator arenas take the
+    /// rest) and what the cgroup's limit leaves (v2 memory.max, or v1
+    /// memory.limit_in_bytes, less the usage); 4 GiB where none can be read.
     pub fn from_machine() -> Self {
-        let total = std::fs::read_to_string("/proc/meminfo").ok().and_then(|s| mem_total(&s));
-        Self { memory: total.map_or(FALLBACK_MEMORY, |t| t / 2) }
+        let read = |path: &str| std::fs::read_to_string(path).ok();
+        let meminfo = read("/proc/meminfo");
+        let total = meminfo.as_deref().and_then(|s| meminfo_field(s, "MemTotal:"));
+        let available = meminfo.as_deref().and_then(|s| meminfo_field(s, "MemAvailable:"));
+        let address_space = read("/proc/self/limits").as_deref().and_then(address_space_limit).and_then(|limit| {
+            let used = read("/proc/self/status").as_deref().and_then(|s| meminfo_field(s, "VmSize:"))?;
+            Some(limit.saturating_sub(used) / 4 * 3)
+        });
+        let bounds = [total.map(|t| t / 2), available, address_space, cgroup_room()];
+        let memory = bounds.into_iter().flatten().min().unwrap_or(FALLBACK_MEMORY);
+        Self { memory }
     }
+}
+
+/// A "Name: value kB" field of /proc/meminfo or /proc/self/status, in bytes.
+fn meminfo_field(text: &str, name: &str) -> Option<u64> {
+    let line = text.lines().find(|l| l.starts_with(name))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    kib.checked_mul(1024)
+}
+
+/// The soft RLIMIT_AS from the text of /proc/self/limits, or None if unlimited.
+fn address_space_limit(limits: &str) -> Option<u64> {
+    let line = limits.lines().find(|l| l.starts_with("Max address space"))?;
+    line.trim_start_matches("Max address space").split_whitespace().next()?.parse().ok()
+}
+
+/// A cgroup limit file's value in bytes, or None for "max" (v2) or the v1 "no limit" value
+/// (the largest page-aligned i64).
+fn cgroup_limit(text: &str) -> Option<u64> {
+    let v: u64 = text.trim().parse().ok()?;
+    (v < (i64::MAX as u64 & !0xfff)).then_some(v)
+}
+
+/// What the memory cgroup of this process still allows (limit less usage), from the
+/// unified hierarchy (memory.max, memory.current) or the v1 controller
+/// (memory.limit_in_bytes, memory.usage_in_bytes), under its path in /proc/self/cgroup or
+/// at the mount's root (where a container sees its own cgroup).
+fn cgroup_room() -> Option<u64> {
+    let membership = std::fs::read_to_string("/proc/self/cgroup").ok()?;
+    let path_of = |prefix: &str| {
+        membership.lines().find_map(|l| {
+            let (_, rest) = l.split_once(':')?;
+            let (controllers, path) = rest.split_once(':')?;
+            (controllers == prefix || controllers.split(',').any(|c| c == prefix)).then(|| path.to_string())
+        })
+    };
+    let candidates = [
+        path_of("").map(|p| (format!("/sys/fs/cgroup{p}"), "memory.max", "memory.current")),
+        Some(("/sys/fs/cgroup".to_string(), "memory.max", "memory.current")),
+        path_of("memory")
+            .map(|p| (format!("/sys/fs/cgroup/memory{p}"), "memory.limit_in_bytes", "memory.usage_in_bytes")),
+        Some(("/sys/fs/cgroup/memory".to_string(), "memory.limit_in_bytes", "memory.usage_in_bytes")),
+    ];
+    candidates.into_iter().flatten().find_map(|(dir, max, current)| {
+        let limit = cgroup_limit(&std::fs::read_to_string(format!("{dir}/{max}")).ok()?)?;
+        let used = std::fs::read_to_string(format!("{dir}/{current}")).ok()?.trim().parse::<u64>().ok()?;
+        Some(limit.saturating_sub(used))
+    })
 }
 
 impl Default for Limits {
@@ -43,13 +103,6 @@ pub fn regular_file_size(path: &std::path::Path, max: u64) -> Result<u64, String
     Ok(meta.len())
 }
 
-/// MemTotal from the text of /proc/meminfo, in bytes.
-fn mem_total(meminfo: &str) -> Option<u64> {
-    let line = meminfo.lines().find(|l| l.starts_with("MemTotal:"))?;
-    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
-    kib.checked_mul(1024)
-}
-
 /// A byte count as people say it, in powers of 1000: "641 B", "3.2 MB", "12.0 GB".
 pub fn format_bytes(n: u64) -> String {
     const UNITS: [&str; 6] = ["kB", "MB", "GB", "TB", "PB", "EB"];
@@ -63,4 +116,30 @@ pub fn format_bytes(n: u64) -> String {
         unit += 1;
     }
     format!("{value:.1} {}", UNITS[unit])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_fields_the_budget_is_taken_from_are_read_in_bytes() {
+        let meminfo = "MemTotal:       24560816 kB\nMemFree:        21000000 kB\nMemAvailable:   23000000 kB\n";
+        assert_eq!(meminfo_field(meminfo, "MemTotal:"), Some(24_560_816 * 1024));
+        assert_eq!(meminfo_field(meminfo, "MemAvailable:"), Some(23_000_000 * 1024));
+        let limits = "Max cpu time              unlimited            unlimited            seconds\n\
+                      Max address space         2048000000           unlimited            bytes\n";
+        assert_eq!(address_space_limit(limits), Some(2_048_000_000));
+        assert_eq!(address_space_limit(&limits.replace("2048000000", "unlimited")), None);
+        assert_eq!(cgroup_limit("max\n"), None);
+        assert_eq!(cgroup_limit("9223372036854771712\n"), None);
+        assert_eq!(cgroup_limit("2147483648\n"), Some(2 << 30));
+    }
+
+    #[test]
+    fn the_budget_is_within_the_machines_memory() {
+        let total = meminfo_field(&std::fs::read_to_string("/proc/meminfo").unwrap(), "MemTotal:").unwrap();
+        let budget = Limits::from_machine().memory;
+        assert!(budget > 0 && budget <= total / 2, "budget {budget} of {total}");
+    }
 }

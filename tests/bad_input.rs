@@ -510,6 +510,67 @@ fn the_committed_hostile_inputs_are_refused_for_their_reasons_within_little_memo
     assert!(matches!(sparse, Err(LoadError::TooLarge { .. })), "{:?}", sparse.err());
 }
 
+// --- OpenVDB density grids ---
+
+/// Values a hostile file puts in a length, count, position or flag field.
+const HOSTILE_WORDS: [u64; 10] =
+    [0, 1, 0x7fff_ffff, 0xffff_ffff, 0x8000_0000, 1 << 28, 1 << 40, i64::MAX as u64, i64::MIN as u64, u64::MAX];
+
+/// Most memory reading a grid of the test's files may take beyond the grid it builds:
+/// the file (40 kB), the reader's nodes (at most 16 bytes held per byte of the file) and
+/// the reader's hash maps, with room to spare.
+const GRID_READING: u64 = 32 * MB;
+
+#[test]
+fn mutated_openvdb_files_are_refused_or_read_within_memory_and_time() {
+    let _turn = serial();
+    let dir = common::scratch("vdb-fuzz");
+    let mut rng = rand_pcg::Pcg64::new(41, 0xda3e_39cb_94b9_5bdb);
+    let mut pick = |n: usize| (rand_core::RngCore::next_u64(&mut rng) % n as u64) as usize;
+    let seeds =
+        ["smoke.vdb", "constant.vdb", "affine.vdb"].map(|f| std::fs::read(common::asset("grids").join(f)).unwrap());
+    let (mut refused, mut read) = (0, 0);
+    for case in 0..1500 {
+        let mut bytes = seeds[case % seeds.len()].clone();
+        // Half the mutations land in the first 600 bytes (header, descriptors, metadata,
+        // transform and the start of the topology), the rest anywhere.
+        for _ in 0..1 + pick(3) {
+            let span = if pick(2) == 0 { 600.min(bytes.len()) } else { bytes.len() };
+            let at = pick(span);
+            match pick(4) {
+                0 => {
+                    let word = HOSTILE_WORDS[pick(HOSTILE_WORDS.len())].to_le_bytes();
+                    let end = (at + 4).min(bytes.len());
+                    bytes[at..end].copy_from_slice(&word[..end - at]);
+                }
+                1 => {
+                    let word = HOSTILE_WORDS[pick(HOSTILE_WORDS.len())].to_le_bytes();
+                    let end = (at + 8).min(bytes.len());
+                    bytes[at..end].copy_from_slice(&word[..end - at]);
+                }
+                2 => bytes[at] ^= 1 << pick(8),
+                _ => bytes.truncate(at),
+            }
+        }
+        let path = dir.write("case.vdb", &bytes);
+        let start = Instant::now();
+        let (result, peak) = peak_of(|| lucent::medium::grid::DensityGrid::load_vdb(&path, None));
+        let took = start.elapsed();
+        let bound = GRID_READING + result.as_ref().map_or(0, |g| g.bytes());
+        assert!(peak <= bound, "case {case}: reading took {peak} bytes at the peak, over {bound}");
+        assert!(took < Duration::from_secs(10), "case {case}: reading took {took:?}");
+        match result {
+            Ok(_) => read += 1,
+            Err(e) => {
+                assert!(!e.contains('\n') && e.contains("case.vdb"), "case {case}: {e}");
+                refused += 1;
+            }
+        }
+    }
+    // Both outcomes are exercised: a mutation in the leaf values still reads.
+    assert!(refused > 100 && read > 100, "{refused} refused, {read} read");
+}
+
 // --- the film ---
 
 #[test]

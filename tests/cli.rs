@@ -94,6 +94,28 @@ fn bad_input_gives_one_line_errors_and_no_file() {
 }
 
 #[test]
+fn the_memory_budget_heeds_the_process_address_space_limit() {
+    // Under a 2 GB RLIMIT_AS (the machine has more), an 8000x8000 film (8.3 GB) was checked
+    // against half the machine's memory, allocated and aborted; it is refused in one line.
+    let dir = common::scratch("cli-ulimit");
+    let out = dir.join("x.exr");
+    let o = Command::new("bash")
+        .arg("-c")
+        .arg(format!(
+            "ulimit -v 2000000 && exec {} render --width 8000 --height 8000 --spp 1 --out {}",
+            env!("CARGO_BIN_EXE_lucent"),
+            out.display()
+        ))
+        .output()
+        .expect("runs");
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+    assert!(err.contains("over the memory limit of 1."), "{err}");
+    assert!(!out.exists());
+}
+
+#[test]
 fn a_saved_view_renders_headless_and_options_override_it() {
     use lucent::config::ViewFile;
     use lucent::integrator::Settings;

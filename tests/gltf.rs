@@ -384,6 +384,22 @@ fn ktx2_textures_transcode_as_basis_universals_own_transcoder_does() {
         let err = ktx2(cut, name).err().unwrap_or_else(|| panic!("{name}: loaded")).to_string();
         assert!(err.contains("image 0 (a data URI): ") && err.contains("KTX2") && !err.contains('\n'), "{name}: {err}");
     }
+    // Level 0's index entry (KTX 2.0, 3.9: byteOffset, byteLength, uncompressedByteLength at
+    // bytes 80, 88 and 96) lying: the transcoder would inflate the zstd level into a buffer
+    // of the declared length (1 TB) before finding the stream short.
+    let lie = |at: usize, value: u64| {
+        let mut b = bytes.clone();
+        b[at..at + 8].copy_from_slice(&value.to_le_bytes());
+        b
+    };
+    for (name, lying, needle) in [
+        ("inflated", lie(96, 1 << 40), "declares 1.1 TB once inflated, more than its 64x64 texels need (4.1 kB)"),
+        ("outside", lie(88, 1 << 40), "(1099511627776 bytes at 184) lies outside the file"),
+        ("wrapping", lie(80, u64::MAX), "(2542 bytes at 18446744073709551615) lies outside the file"),
+    ] {
+        let err = ktx2(&lying, name).err().unwrap_or_else(|| panic!("{name}: loaded")).to_string();
+        assert!(err.contains("image 0 (a data URI): KTX2 level 0") && err.contains(needle), "{name}: {err}");
+    }
     for mode in ["uastc", "etc1s"] {
         let bytes = std::fs::read(common::asset(format!("ktx2/{mode}.ktx2"))).unwrap();
         let desc = ktx2(&bytes, mode).unwrap_or_else(|e| panic!("{mode}: {e}"));

@@ -67,6 +67,21 @@ fn pieces_by_sample_range_merge_to_the_single_process_image_bit_for_bit() {
     let header = header.replace("\"x1\":24,\"y1\":18", "\"x1\":1,\"y1\":1");
     std::fs::write(d.join("huge.part"), [format!("{header}\n").as_bytes(), &[0u8; 80]].concat()).unwrap();
     refused(&["merge", &p("huge.part"), "--out", &bad], "merging a 100000x100000 frame needs about 240.0 GB");
+    // A frame whose pixel count times the bytes per pixel overflows u64 (it wrapped to a
+    // small number and the allocation panicked), and a sample range past u32.
+    let wide = header.replace("\"width\":100000,\"height\":100000", "\"width\":4294967295,\"height\":4294967295");
+    std::fs::write(d.join("wide.part"), [format!("{wide}\n").as_bytes(), &[0u8; 80]].concat()).unwrap();
+    refused(
+        &["merge", &p("wide.part"), "--out", &bad],
+        "merging a 4294967295x4294967295 frame needs about more than 18 EB",
+    );
+    let past = text.lines().next().unwrap().replace("\"first\":0,", "\"first\":4294967294,");
+    std::fs::write(
+        d.join("past.part"),
+        [format!("{past}\n").as_bytes(), &bytes[text.lines().next().unwrap().len() + 1..]].concat(),
+    )
+    .unwrap();
+    refused(&["merge", &p("past.part"), "--out", &bad], "run past the last sample number");
     std::fs::write(d.join("junk.part"), b"not a piece\n").unwrap();
     refused(&["merge", &p("junk.part"), "--out", &bad], "bad header");
     refused(&["render", "--samples", "5..5", "--out", &p("x.part")], "A < B");

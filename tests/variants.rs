@@ -235,6 +235,16 @@ fn bad_meshopt_streams_are_refused_in_one_line() {
             "bufferViews[0].extensions.EXT_meshopt_compression: 1099511627776 elements of 12 bytes do not fit the view's byteLength",
         ),
         (
+            // Within the view's (lying) byteLength, but no meshopt stream of its few bytes
+            // decodes to 805 MB: refused before anything is allocated.
+            "lying.gltf",
+            meshopt_triangle(p, |d| {
+                d["bufferViews"][0]["byteLength"] = json!(12u64 << 26);
+                d["bufferViews"][0]["extensions"]["EXT_meshopt_compression"]["count"] = json!(1u64 << 26)
+            }),
+            "bufferViews[0].extensions.EXT_meshopt_compression: 67108864 elements of 12 bytes cannot come from",
+        ),
+        (
             "outside.gltf",
             meshopt_triangle(p, |d| {
                 d["bufferViews"][1]["extensions"]["EXT_meshopt_compression"]["byteOffset"] = json!(1 << 20)

@@ -176,12 +176,14 @@ pub fn merge(paths: &[PathBuf], complete: bool, spp: Option<u32>) -> Result<Merg
     let cells = cells(&pieces, width, height)?;
     // The mean image and its encoded copy, and the largest cell's sums.
     let largest = cells.iter().filter(|c| !c.pieces.is_empty()).map(|c| c.window.area()).max().unwrap_or(0);
-    let bytes = width as u64 * height as u64 * 24 + largest * std::mem::size_of::<PixelSums>() as u64;
+    let bytes = (width as u64 * height as u64)
+        .checked_mul(24)
+        .and_then(|b| b.checked_add(largest.checked_mul(std::mem::size_of::<PixelSums>() as u64)?));
     let limit = Limits::from_machine().memory;
-    if bytes > limit {
+    if bytes.is_none_or(|b| b > limit) {
         return Err(format!(
             "merging a {width}x{height} frame needs about {}, over the memory limit of {}",
-            format_bytes(bytes),
+            bytes.map_or("more than 18 EB".into(), format_bytes),
             format_bytes(limit)
         ));
     }

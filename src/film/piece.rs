@@ -86,6 +86,12 @@ impl Piece {
         if header.format != FORMAT {
             return Err(fail(&format!("format {} (this build reads {FORMAT})", header.format)));
         }
+        if header.first.checked_add(header.count).is_none() {
+            return Err(fail(&format!(
+                "samples {}..{}+{} run past the last sample number",
+                header.first, header.first, header.count
+            )));
+        }
         header
             .window
             .check(header.width, header.height)

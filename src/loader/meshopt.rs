@@ -52,10 +52,19 @@ pub(super) fn decode(json: &mut Root, buffers: &mut Vec<buffer::Data>, tally: &m
                 "invalid glTF: {what}: {count} elements of {stride} bytes do not fit the view's byteLength"
             )));
         };
+        if decoded > most_decoded(&mode, stride, data.len() as u64) {
+            return Err(Refusal::Invalid(format!(
+                "invalid glTF: {what}: {count} elements of {stride} bytes cannot come from {} compressed bytes",
+                data.len()
+            )));
+        }
         // Counted before decoding: every mode and filter decodes count x stride bytes.
         tally.admit(&what, decoded)?;
-        let bytes = decode_view(&mode, &filter, stride as usize, count as usize, data)
-            .map_err(|e| Refusal::Invalid(format!("{what} (mode {mode}, filter {filter}): {e}")))?;
+        let bytes = crate::guard::decode("the meshopt decoder", || {
+            decode_view(&mode, &filter, stride as usize, count as usize, data)
+        })
+        .and_then(|r| r)
+        .map_err(|e| Refusal::Invalid(format!("{what} (mode {mode}, filter {filter}): {e}")))?;
         let length = USize64(bytes.len() as u64);
         let buffer = append_buffer(json, buffers, bytes);
         let view = &mut json.buffer_views[i];
@@ -65,6 +74,19 @@ pub(super) fn decode(json: &mut Root, buffers: &mut Vec<buffer::Data>, tally: &m
         view.extensions = None;
     }
     Ok(())
+}
+
+/// The most bytes `compressed` bytes of a stream in `mode` can decode to, from the least
+/// each format spends per element (meshoptimizer's bitstreams): an attribute stream at
+/// least 2 control bits per byte channel of a block of up to 256 elements (version 1; version
+/// 0 spends 2 header bits per 16 values), so one compressed byte per 1024 decoded; a
+/// triangle at least its code byte, an index at least one byte of its varint.
+fn most_decoded(mode: &str, stride: u64, compressed: u64) -> u64 {
+    match mode {
+        "ATTRIBUTES" => compressed.saturating_mul(1024),
+        "TRIANGLES" => compressed.saturating_mul(3 * stride),
+        _ => compressed.saturating_mul(stride),
+    }
 }
 
 /// One compressed stream decoded as the extension's mode and filter say.

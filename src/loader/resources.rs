@@ -199,11 +199,11 @@ pub fn image_headers<'a>(
         };
         let header = |e: &dyn std::fmt::Display| Refusal::Invalid(format!("{name}: {e}"));
         if bytes.starts_with(KTX2_MAGIC) {
-            let texture =
-                basisu::Transcoder::new(&bytes).map_err(|e| header(&format!("not a Basis Universal KTX2 ({e:?})")))?;
-            let (width, height) = texture.base_dimensions();
+            let (width, height) = ktx2_base_level(&bytes).map_err(|e| header(&e))?;
+            crate::guard::decode("the Basis Universal transcoder", || basisu::Transcoder::new(&bytes).map(drop))
+                .map_err(|e| header(&e))?
+                .map_err(|e| header(&format!("not a Basis Universal KTX2 ({e:?})")))?;
             let decoded = u64::from(width) * u64::from(height) * 4;
-            drop(texture);
             out.push(Some(Encoded { name, bytes, format: None, width, height, decoded, deep: false }));
             continue;
         }
@@ -232,18 +232,62 @@ pub fn decode(image: Encoded, max_alloc: u64) -> Result<DynamicImage, Refusal> {
     let mut limits = image::Limits::no_limits();
     limits.max_alloc = Some(max_alloc);
     reader.limits(limits);
-    reader.decode().map_err(|e| Refusal::Invalid(format!("{}: {}", image.name, e.to_string().replace('\n', " "))))
+    let decoder = format!("the {format:?} decoder");
+    crate::guard::decode(&decoder, || reader.decode())
+        .map_err(|e| Refusal::Invalid(format!("{}: {e}", image.name)))?
+        .map_err(|e| Refusal::Invalid(format!("{}: {}", image.name, e.to_string().replace('\n', " "))))
 }
 
 /// The identifier that opens every KTX2 file (KTX 2.0 specification, 3.1).
 const KTX2_MAGIC: &[u8] = b"\xabKTX 20\xbb\r\n\x1a\n";
 
+/// Most bytes a texel of a Basis Universal level takes once inflated: a UASTC 4x4 block
+/// is 16 bytes, one per texel (ETC1S slices are smaller).
+const KTX2_LEVEL_BYTES_PER_TEXEL: u64 = 1;
+
+/// A KTX2 file's base size, from its header and level index (KTX 2.0 specification, 3.1
+/// and 3.9), after checking what the transcoder will allocate from them: the base level
+/// (index 0) lies inside the file, and its inflated length (Zstandard supercompression
+/// inflates the whole level to the declared `uncompressedByteLength`) is no more than its
+/// texels could need (one byte per texel of every layer, face and slice, rounded up to
+/// whole 4x4 blocks).
+fn ktx2_base_level(bytes: &[u8]) -> Result<(u32, u32), String> {
+    let u32_at = |o: usize| bytes.get(o..o + 4).map(|b| u32::from_le_bytes(b.try_into().expect("4 bytes")));
+    let u64_at = |o: usize| bytes.get(o..o + 8).map(|b| u64::from_le_bytes(b.try_into().expect("8 bytes")));
+    let short = || "the KTX2 header is cut short".to_string();
+    let [width, height, depth, layers, faces] = [20, 24, 28, 32, 36].map(u32_at);
+    let (width, height) = (width.ok_or_else(short)?, height.ok_or_else(short)?);
+    let (depth, layers, faces) = (depth.ok_or_else(short)?, layers.ok_or_else(short)?, faces.ok_or_else(short)?);
+    let (offset, length, inflated) = (u64_at(80).ok_or_else(short)?, u64_at(88).ok_or_else(short)?, u64_at(96));
+    let inflated = inflated.ok_or_else(short)?;
+    if offset.checked_add(length).is_none_or(|end| end > bytes.len() as u64) {
+        return Err(format!("KTX2 level 0 ({length} bytes at {offset}) lies outside the file's {} bytes", bytes.len()));
+    }
+    let blocks = |n: u32| u64::from(n).div_ceil(4) * 4;
+    let texels = [blocks(width), blocks(height), u64::from(depth.max(1)), u64::from(layers.max(1)), u64::from(faces)]
+        .into_iter()
+        .try_fold(1u64, u64::checked_mul);
+    let most = texels.and_then(|t| t.checked_mul(KTX2_LEVEL_BYTES_PER_TEXEL)).unwrap_or(u64::MAX);
+    if inflated > most {
+        return Err(format!(
+            "KTX2 level 0 declares {} once inflated, more than its {width}x{height} texels need ({})",
+            format_bytes(inflated),
+            format_bytes(most)
+        ));
+    }
+    Ok((width, height))
+}
+
 /// A KHR_texture_basisu image's base level transcoded to RGBA8 by the pure-Rust Basis
 /// Universal transcoder (the `basisu` crate), its size already counted from the header.
 fn transcode(image: &Encoded) -> Result<DynamicImage, Refusal> {
     let fail = |e: basisu::Error| Refusal::Invalid(format!("{}: the KTX2 does not transcode ({e:?})", image.name));
-    let texture = basisu::Transcoder::new(&image.bytes).map_err(fail)?;
-    let texels = texture.transcode(0, basisu::TargetFormat::Rgba32, basisu::DecodeFlags::NONE).map_err(fail)?;
+    let texels = crate::guard::decode("the Basis Universal transcoder", || {
+        let texture = basisu::Transcoder::new(&image.bytes)?;
+        texture.transcode(0, basisu::TargetFormat::Rgba32, basisu::DecodeFlags::NONE)
+    })
+    .map_err(|e| Refusal::Invalid(format!("{}: {e}", image.name)))?
+    .map_err(fail)?;
     image::RgbaImage::from_raw(image.width, image.height, texels)
         .map(DynamicImage::ImageRgba8)
         .ok_or_else(|| Refusal::Invalid(format!("{}: the KTX2 transcodes to the wrong size", image.name)))

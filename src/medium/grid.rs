@@ -4,11 +4,19 @@
 //! tracking and shadow-ray transmittance from ratio tracking against those majorants,
 //! cell by cell along the ray (pbrt-v4 chapter 11; Novák et al. 2014).
 
-use glam::{IVec3, UVec3, Vec3};
+use glam::{I64Vec3, IVec3, UVec3, Vec3};
 use std::path::Path;
 
 /// Voxels per side of a majorant cell.
 const CELL: i32 = 8;
+
+/// Ratio tracking plays Russian roulette once its estimate falls below this, ending the
+/// walk with this probability.
+const ROULETTE_BELOW: f32 = 0.05;
+const ROULETTE_END: f32 = 0.75;
+
+/// Most tentative collisions one free-flight or transmittance walk takes.
+const MAX_COLLISIONS: u32 = 1 << 12;
 
 /// Most voxels a grid may hold once dense (1 GiB of f32).
 const MAX_VOXELS: u64 = 1 << 28;
@@ -35,21 +43,63 @@ impl DensityGrid {
     /// A grid of the given active voxels (index, density); densities that are negative or
     /// not finite count as 0. The error is one line.
     pub fn from_voxels(name: &str, voxels: &[(IVec3, f32)]) -> Result<Self, String> {
-        let (lo, hi) = voxels.iter().fold((IVec3::MAX, IVec3::MIN), |(lo, hi), &(i, _)| (lo.min(i), hi.max(i)));
-        if voxels.is_empty() {
+        let boxes = voxels.iter().map(|&(i, _)| (i.as_i64vec3(), 1));
+        let (lo, dims) = Self::span(name, boxes, crate::memory::Limits::from_machine().memory)?;
+        let mut data = vec![0.0f32; (dims.x * dims.y * dims.z) as usize];
+        for &(i, v) in voxels {
+            Self::fill(&mut data, dims, i.as_i64vec3() - lo, 1, v);
+        }
+        Ok(Self::dense(name, dims.as_uvec3(), data))
+    }
+
+    /// The corner and size of the box around `boxes` (corner, side in voxels), in i64 so
+    /// that voxels at the i32 extremes do not overflow, after checking that it holds at
+    /// most `MAX_VOXELS` and that their f32 densities fit in `room` bytes.
+    fn span(name: &str, boxes: impl Iterator<Item = (I64Vec3, i64)>, room: u64) -> Result<(I64Vec3, I64Vec3), String> {
+        let (lo, hi) = boxes.fold((I64Vec3::MAX, I64Vec3::MIN), |(lo, hi), (p, side)| {
+            (lo.min(p), hi.max(p + I64Vec3::splat(side - 1)))
+        });
+        if lo.x > hi.x {
             return Err(format!("{name}: the grid has no active voxel"));
         }
-        let dims = (hi - lo + IVec3::ONE).as_uvec3();
-        let count = dims.x as u64 * dims.y as u64 * dims.z as u64;
-        if count > MAX_VOXELS {
-            return Err(format!("{name}: the grid spans {dims} voxels, over the limit of {MAX_VOXELS}"));
+        let dims = hi - lo + I64Vec3::ONE;
+        let count = [dims.x, dims.y, dims.z].into_iter().try_fold(1u64, |n, d| n.checked_mul(d as u64));
+        if count.is_none_or(|n| n > MAX_VOXELS) {
+            return Err(format!(
+                "{name}: the grid spans {}x{}x{} voxels, over the limit of {MAX_VOXELS}",
+                dims.x, dims.y, dims.z
+            ));
         }
-        let mut data = vec![0.0f32; count as usize];
-        for &(i, v) in voxels {
-            let local = (i - lo).as_uvec3();
-            data[(local.x + dims.x * (local.y + dims.y * local.z)) as usize] =
-                if v.is_finite() { v.max(0.0) } else { 0.0 };
+        let bytes = count.unwrap_or(0) * 4;
+        if bytes > room {
+            return Err(format!(
+                "{name}: the grid's {}x{}x{} voxels take {}, over the memory limit of {}",
+                dims.x,
+                dims.y,
+                dims.z,
+                crate::memory::format_bytes(bytes),
+                crate::memory::format_bytes(room)
+            ));
         }
+        Ok((lo, dims))
+    }
+
+    /// Sets the cube of `side` voxels at `local` (from the grid's corner) to density `v`
+    /// (0 if negative or not finite).
+    fn fill(data: &mut [f32], dims: I64Vec3, local: I64Vec3, side: i64, v: f32) {
+        let v = if v.is_finite() { v.max(0.0) } else { 0.0 };
+        for z in local.z..local.z + side {
+            for y in local.y..local.y + side {
+                let row = ((z * dims.y + y) * dims.x + local.x) as usize;
+                data[row..row + side as usize].fill(v);
+            }
+        }
+    }
+
+    /// The grid of `dims` voxels holding `data` (x fastest), with its majorants: each
+    /// cell's is the largest density of the voxels within one of it, as trilinear
+    /// interpolation reaches into the cell from its neighbours.
+    fn dense(name: &str, dims: UVec3, data: Vec<f32>) -> Self {
         let cells = (dims + UVec3::splat(CELL as u32 - 1)) / CELL as u32;
         let mut grid = Self {
             name: name.into(),
@@ -61,60 +111,60 @@ impl DensityGrid {
             scale: Vec3::ONE,
         };
         grid.fit(Vec3::ZERO, dims.as_vec3());
-        for z in 0..dims.z as i32 {
-            for y in 0..dims.y as i32 {
-                for x in 0..dims.x as i32 {
-                    let v = grid.voxel(IVec3::new(x, y, z));
-                    // Trilinear interpolation spreads a voxel over its neighbours' cells.
-                    for dz in -1..=1 {
-                        for dy in -1..=1 {
-                            for dx in -1..=1 {
-                                let c = (IVec3::new(x + dx, y + dy, z + dz)).div_euclid(IVec3::splat(CELL));
-                                if c.cmpge(IVec3::ZERO).all() && c.cmplt(cells.as_ivec3()).all() {
-                                    let at = (c.x + cells.x as i32 * (c.y + cells.y as i32 * c.z)) as usize;
-                                    grid.majorants[at] = grid.majorants[at].max(v);
-                                }
-                            }
+        let (d, c) = (dims.as_ivec3(), cells.as_ivec3());
+        for cz in 0..c.z {
+            for cy in 0..c.y {
+                for cx in 0..c.x {
+                    let cell = IVec3::new(cx, cy, cz);
+                    let lo = (cell * CELL - IVec3::ONE).max(IVec3::ZERO);
+                    let hi = (cell * CELL + IVec3::splat(CELL + 1)).min(d);
+                    let mut m = 0.0f32;
+                    for z in lo.z..hi.z {
+                        for y in lo.y..hi.y {
+                            let row = ((z * d.y + y) * d.x) as usize;
+                            m = grid.data[row + lo.x as usize..row + hi.x as usize].iter().fold(m, |m, &v| m.max(v));
                         }
                     }
+                    grid.majorants[(cx + c.x * (cy + c.y * cz)) as usize] = m;
                 }
             }
         }
-        Ok(grid)
+        grid
     }
 
-    /// Reads the float grid `grid` (the first float grid if None) of an OpenVDB file.
+    /// Reads the float grid `grid` (the first grid by name if None) of an OpenVDB file,
+    /// checked first ([`super::vdb`]) and read by vdb-rs behind the decoder guard.
     pub fn load_vdb(path: &Path, grid: Option<&str>) -> Result<Self, String> {
         let fail = |e: &dyn std::fmt::Display| format!("cannot read density grid {}: {e}", path.display());
-        crate::memory::regular_file_size(path, crate::memory::Limits::from_machine().memory).map_err(|e| fail(&e))?;
-        let file = std::fs::File::open(path).map_err(|e| fail(&e))?;
-        let mut reader = vdb_rs::VdbReader::new(std::io::BufReader::new(file)).map_err(|e| fail(&e))?;
-        let mut names = reader.available_grids();
-        names.sort();
-        let name = match grid {
-            Some(g) if names.iter().any(|n| n == g) => g.to_string(),
-            Some(g) => return Err(fail(&format!("it has no grid \"{g}\" (it has {})", names.join(", ")))),
-            None => names.first().cloned().ok_or_else(|| fail(&"it holds no grid"))?,
-        };
-        let read = reader.read_grid::<f32>(&name).map_err(|e| fail(&format!("grid \"{name}\": {e}")))?;
-        if !read.descriptor.grid_type.contains("float") {
-            return Err(fail(&format!("grid \"{name}\" holds {}, not float densities", read.descriptor.grid_type)));
+        let limit = crate::memory::Limits::from_machine().memory;
+        crate::memory::regular_file_size(path, limit).map_err(|e| fail(&e))?;
+        let bytes = std::fs::read(path).map_err(|e| fail(&e))?;
+        let prepared = super::vdb::prepare(bytes, grid).map_err(|e| fail(&e))?;
+        let (file, name) = (prepared.bytes.len() as u64, prepared.grid);
+        if file.saturating_add(prepared.held) > limit {
+            return Err(fail(&format!(
+                "reading grid \"{name}\" takes {}, over the memory limit of {}",
+                crate::memory::format_bytes(file.saturating_add(prepared.held)),
+                crate::memory::format_bytes(limit)
+            )));
         }
-        let mut voxels = Vec::new();
-        for (p, v, level) in read.iter() {
-            let (p, size) = (IVec3::new(p.x as i32, p.y as i32, p.z as i32), level.scale() as i32);
-            if (size as u64).pow(3) + voxels.len() as u64 > MAX_VOXELS {
-                return Err(fail(&format!("grid \"{name}\" has more than {MAX_VOXELS} voxels")));
+        let label = format!("{} (grid \"{name}\")", path.display());
+        let room = limit - file - prepared.held;
+        crate::guard::decode("vdb-rs", || {
+            let mut reader = vdb_rs::VdbReader::new(std::io::Cursor::new(prepared.bytes)).map_err(|e| fail(&e))?;
+            let read = reader.read_grid::<f32>(&name).map_err(|e| fail(&format!("grid \"{name}\": {e}")))?;
+            // Positions are vdb-rs's glam vectors; tiles (of 8 or 128 voxels a side) are cubes.
+            let cube = |x: f32, y: f32, z: f32, side: f32| (I64Vec3::new(x as i64, y as i64, z as i64), side as i64);
+            let boxes = read.iter().map(|(p, _, level)| cube(p.x, p.y, p.z, level.scale()));
+            let (lo, dims) = Self::span(&label, boxes, room)?;
+            let mut data = vec![0.0f32; (dims.x * dims.y * dims.z) as usize];
+            for (p, v, level) in read.iter() {
+                let (p, side) = cube(p.x, p.y, p.z, level.scale());
+                Self::fill(&mut data, dims, p - lo, side, v);
             }
-            for z in 0..size {
-                for y in 0..size {
-                    for x in 0..size {
-                        voxels.push((p + IVec3::new(x, y, z), v));
-                    }
-                }
-            }
-        }
-        Self::from_voxels(&format!("{} (grid \"{name}\")", path.display()), &voxels)
+            Ok(Self::dense(&label, dims.as_uvec3(), data))
+        })
+        .map_err(|e| fail(&e))?
     }
 
     /// Places the grid's voxel box so that it spans the world box from `lo` to `hi`.
@@ -151,6 +201,11 @@ impl DensityGrid {
             sum += w.x * w.y * w.z * self.voxel(i + o);
         }
         sum
+    }
+
+    /// Bytes the grid holds: its densities and majorants.
+    pub fn bytes(&self) -> u64 {
+        4 * (self.data.len() + self.majorants.len()) as u64
     }
 
     /// The largest density anywhere in the grid.
@@ -218,22 +273,65 @@ impl DensityGrid {
         u: &mut dyn FnMut() -> f32,
         mut visit: impl FnMut(f32, f32, &mut dyn FnMut() -> f32) -> bool,
     ) {
+        let mut left = MAX_COLLISIONS;
         self.march(o, d, t_max, |t0, t1, majorant| {
-            let sigma_maj = sigma * majorant;
+            let sigma_maj = (sigma * majorant).min(f32::MAX);
             if sigma_maj <= 0.0 {
                 return true;
             }
             let mut t = t0;
             loop {
-                t -= (1.0 - u()).ln() / sigma_maj;
+                // At least one ulp, so that the walk advances whatever the density.
+                t = (t - (1.0 - u()).ln() / sigma_maj).max(t.next_up());
                 if t >= t1 {
                     return true;
                 }
-                if !visit(t, self.density(o + d * t) / majorant, u) {
+                let density = self.density(o + d * t);
+                if density == 0.0
+                    && let Some(exit) = self.empty_span_exit(o, d, t)
+                {
+                    t = exit;
+                    continue;
+                }
+                left -= 1;
+                if left == 0 {
+                    // The walk has met more tentative collisions than a ray through any
+                    // medium a scene means to show (an optical depth over 2^12 under the
+                    // majorant): it ends as at a real one (opaque), a bias only there.
+                    visit(t, 1.0, u);
+                    return false;
+                }
+                if !visit(t, density / majorant, u) {
                     return false;
                 }
             }
         });
+    }
+
+    /// Where the ray leaves the span between voxel centres around `o + d t` if all eight
+    /// voxels at its corners are empty: interpolation makes the density 0 all through it,
+    /// so its tentative collisions are all null and are skipped (a majorant of 0 there; the
+    /// collisions after it start afresh, as the exponential's lack of memory allows).
+    fn empty_span_exit(&self, o: Vec3, d: Vec3, t: f32) -> Option<f32> {
+        let g = self.to_grid(o + d * t) - Vec3::splat(0.5);
+        let base = g.floor();
+        let corner = base.as_ivec3();
+        for z in 0..2 {
+            for y in 0..2 {
+                for x in 0..2 {
+                    if self.voxel(corner + IVec3::new(x, y, z)) != 0.0 {
+                        return None;
+                    }
+                }
+            }
+        }
+        // Slab exit from the unit box [base, base + 1] in grid units.
+        let (go, gd) = (self.to_grid(o) - Vec3::splat(0.5), d * self.scale);
+        let exit = (0..3)
+            .filter(|&a| gd[a] != 0.0)
+            .map(|a| ((if gd[a] > 0.0 { base[a] + 1.0 } else { base[a] }) - go[a]) / gd[a])
+            .fold(f32::INFINITY, f32::min);
+        Some(exit.max(t.next_up()))
     }
 
     /// Delta tracking: the distance at which a ray from `o` along unit `d` first really
@@ -255,8 +353,17 @@ impl DensityGrid {
     /// `sigma` x density along a ray from `o` along unit `d` up to `t_max`.
     pub fn ratio_track(&self, sigma: f32, o: Vec3, d: Vec3, t_max: f32, u: &mut dyn FnMut() -> f32) -> f32 {
         let mut tr = 1.0f32;
-        self.collisions((sigma, o, d, t_max), u, |_, real, _| {
+        self.collisions((sigma, o, d, t_max), u, |_, real, u| {
             tr *= 1.0 - real;
+            // Russian roulette once the estimate is small (pbrt-v4's ratio tracking does
+            // the same): unbiased, and it ends walks through dense media in a few steps.
+            if tr < ROULETTE_BELOW {
+                if u() < ROULETTE_END {
+                    tr = 0.0;
+                    return false;
+                }
+                tr /= 1.0 - ROULETTE_END;
+            }
             tr > 0.0
         });
         tr.max(0.0)
@@ -273,6 +380,35 @@ mod tests {
             state = crate::math::sampler::mix64(state.wrapping_add(0x9e37_79b9_7f4a_7c15));
             (state >> 40) as f32 / (1u64 << 24) as f32
         }
+    }
+
+    #[test]
+    fn walks_end_at_any_density_and_skip_empty_space_exactly() {
+        // Density 1e12 where x < 8 and 0 elsewhere in a 16^3 grid: the majorant cells on
+        // the empty side of the wall see 1e12 through interpolation's reach.
+        let voxels: Vec<(IVec3, f32)> = (0..16 * 16 * 16)
+            .map(|i| IVec3::new(i % 16, i / 16 % 16, i / 256))
+            .map(|p| (p, if p.x < 8 { 1e12 } else { 0.0 }))
+            .collect();
+        let wall = DensityGrid::from_voxels("wall", &voxels).unwrap();
+        let (done, walked) = std::sync::mpsc::channel();
+        std::thread::spawn(move || {
+            let mut u = numbers();
+            // Through the empty side, where every tentative collision would be null.
+            let (o, up) = (Vec3::new(12.0, -1.0, 8.0), Vec3::Y);
+            for sigma in [1.0, 1e7, 1e30] {
+                assert_eq!(wall.ratio_track(sigma, o, up, 20.0, &mut u), 1.0, "sigma {sigma}");
+                assert_eq!(wall.delta_track(sigma, o, up, 20.0, &mut u), None, "sigma {sigma}");
+            }
+            // Into the wall: opaque, and the collision is where the density starts
+            // (between the centres of voxels 7 and 8).
+            let (o, left) = (Vec3::new(17.0, 8.0, 8.0), -Vec3::X);
+            let t = wall.delta_track(1.0, o, left, 20.0, &mut u).unwrap();
+            assert!(t > 17.0 - 8.5 - 1e-3 && t < 17.0 - 7.5, "{t}");
+            assert_eq!(wall.ratio_track(1.0, o, left, 20.0, &mut u), 0.0);
+            done.send(()).unwrap();
+        });
+        walked.recv_timeout(std::time::Duration::from_secs(20)).expect("the walks end");
     }
 
     fn ramp() -> DensityGrid {

@@ -15,6 +15,7 @@
 
 pub mod grid;
 pub mod phase;
+pub mod vdb;
 
 use crate::spectrum::Spectrum;
 use glam::Vec3;
