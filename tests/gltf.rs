@@ -362,6 +362,23 @@ fn morph_targets_apply_at_the_nodes_or_meshs_weights_with_a_warning() {
     };
     assert_eq!(morphed(json!({"mesh": 0})), 1.5, "the mesh's default weight");
     assert_eq!(morphed(json!({"mesh": 0, "weights": [1.0]})), 2.0, "the node's weights override the mesh's");
+    // A sparse accessor without a buffer view is zeros but for its few entries: a file of a
+    // few kB can name a million vertices and 3,000 targets over them, 3e9 vertex updates,
+    // refused before the work.
+    let mut doc: Value = serde_json::from_slice(&one_triangle(json!({"mesh": 0}), [0, 1, 2])).unwrap();
+    let zeros = doc["accessors"].as_array().unwrap().len();
+    doc["accessors"].as_array_mut().unwrap().push(json!({
+        "componentType": 5126, "count": 1_000_000, "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0],
+        "sparse": {"count": 1, "indices": {"bufferView": 2, "componentType": 5125}, "values": {"bufferView": 0}}
+    }));
+    doc["meshes"][0]["primitives"][0] =
+        json!({"attributes": {"POSITION": zeros}, "targets": vec![json!({"POSITION": zeros}); 3000]});
+    doc["meshes"][0]["weights"] = json!(vec![0.5; 3000]);
+    let err = gltf::load(&temp("morphs.gltf", &serde_json::to_vec(&doc).unwrap())).err().expect("refused").to_string();
+    assert!(
+        err.contains("meshes[0].primitives[0]: its 3000 morph target attributes over 1000000 vertices and 1 copies ask for 3000000000 vertex updates, over the limit of 268435456"),
+        "{err}"
+    );
 }
 
 #[test]

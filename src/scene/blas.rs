@@ -246,9 +246,10 @@ pub(super) fn build_bvh(boxes: &[Aabb]) -> (CwBvh, Duration) {
     }
     let start = Instant::now();
     let params = BvhBuildParams::medium_build();
+    let untied = untied(boxes);
     let mut bvh2 = PlocBuilder::with_capacity(boxes.len()).build(
         params.ploc_search_distance,
-        boxes,
+        untied.as_deref().unwrap_or(boxes),
         (0..boxes.len() as u32).collect(),
         params.sort_precision,
         params.search_depth_threshold,
@@ -256,6 +257,34 @@ pub(super) fn build_bvh(boxes: &[Aabb]) -> (CwBvh, Duration) {
     ReinsertionOptimizer::default().run(&mut bvh2, params.reinsertion_batch_ratio, None);
     let bvh = bvh2_to_cwbvh(&bvh2, params.max_prims_per_leaf.clamp(1, 3), false, false);
     (bvh, start.elapsed())
+}
+
+/// The boxes PLOC builds over when some are equal: each box equal to an earlier one grown
+/// on every side by a pseudo-random 1/1024 to 2/1024 of its size. PLOC (Meister and
+/// Bittner 2018) merges neighbours in Morton order that choose each other, by the area of
+/// their union; boxes all alike tie every cost, one pair merges per pass and the build is
+/// quadratic (20,000 copies of one triangle took 7.5 s, 40,000 took 78 s). Grown at random,
+/// the costs have local minima everywhere again, and the centroids, hence the Morton order,
+/// stay. The tree's boxes come from the real ones (`Wide::new`), so only the grouping
+/// changes (a quad's two triangles share a box, so most meshes have a few). None when no
+/// two boxes are equal.
+fn untied(boxes: &[Aabb]) -> Option<Vec<Aabb>> {
+    let key = |b: &Aabb| [b.min.x, b.min.y, b.min.z, b.max.x, b.max.y, b.max.z].map(f32::to_bits);
+    let mut order: Vec<u32> = (0..boxes.len() as u32).collect();
+    order.sort_unstable_by_key(|&i| (key(&boxes[i as usize]), i));
+    let mut out: Option<Vec<Aabb>> = None;
+    for pair in order.windows(2) {
+        let (a, b) = (&boxes[pair[0] as usize], &boxes[pair[1] as usize]);
+        if key(a) != key(b) {
+            continue;
+        }
+        let out = out.get_or_insert_with(|| boxes.to_vec());
+        let size = (b.max - b.min).max_element().max(1e-6 * b.min.abs().max(b.max.abs()).max_element());
+        let h = (crate::math::sampler::mix64(u64::from(pair[1])) >> 40) as f32 / (1u64 << 24) as f32;
+        let grow = Vec3A::splat(size.max(f32::MIN_POSITIVE) * (1.0 + h) / 1024.0);
+        out[pair[1] as usize] = Aabb::new(b.min - grow, b.max + grow);
+    }
+    out
 }
 
 /// `items` in BVH order (`order` lists the original index of each), the originals dropped.
@@ -269,4 +298,39 @@ pub(super) fn reorder<T: Copy>(order: &[u32], items: Vec<T>) -> Vec<T> {
 pub(super) fn padded_box(min: Vec3, max: Vec3, size: f32) -> Aabb {
     let pad = Vec3::splat(1e-6 * min.abs().max(max.abs()).max_element() + 1e-7 * size);
     Aabb::new((min - pad).into(), (max + pad).into())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The depth of the deepest node of `bvh`.
+    fn depth(bvh: &CwBvh) -> usize {
+        let parents = bvh.compute_parents();
+        (0..parents.len())
+            .map(|mut i| {
+                let mut d = 0;
+                while i != 0 {
+                    i = parents[i] as usize;
+                    d += 1;
+                }
+                d
+            })
+            .max()
+            .unwrap_or(0)
+    }
+
+    #[test]
+    fn equal_boxes_build_a_shallow_tree() {
+        // One triangle's box 20,000 times: tied merge costs made PLOC merge one pair per
+        // pass, in time quadratic in the count, into a tree nearly as deep as a list.
+        let one = Aabb::new(Vec3A::ZERO, Vec3A::new(1.0, 1.0, 0.0));
+        let (bvh, _) = build_bvh(&vec![one; 20_000]);
+        let mut indices = bvh.primitive_indices.clone();
+        indices.sort_unstable();
+        assert!(indices.iter().copied().eq(0..20_000), "every box is in the tree once");
+        // Tied, the tree was 2,856 levels deep; untied, 44 (a balanced 8-wide tree over
+        // 20,000 leaves of up to 3 would be 5).
+        assert!(depth(&bvh) <= 64, "depth {}", depth(&bvh));
+    }
 }
