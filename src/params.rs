@@ -5,6 +5,10 @@
 
 use std::fmt;
 
+/// Largest image side in pixels: the range of `--width` and `--height`, and what a render
+/// piece's frame may declare.
+pub const MAX_SIDE: u64 = 16384;
+
 /// A value a parameter can hold, independent of its field's type.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Value {

@@ -521,37 +521,46 @@ const HOSTILE_WORDS: [u64; 10] =
 /// the reader's hash maps, with room to spare.
 const GRID_READING: u64 = 32 * MB;
 
+/// A fixed-seed stream of choices: `pick(n)` is uniform in 0..n.
+fn choices(seed: u64) -> impl FnMut(usize) -> usize {
+    let mut rng = rand_pcg::Pcg64::new(u128::from(seed), 0xda3e_39cb_94b9_5bdb);
+    move |n| (rand_core::RngCore::next_u64(&mut rng) % n as u64) as usize
+}
+
+/// Mutates a file's bytes: 1 to 3 changes, each a hostile 4- or 8-byte word written, a bit
+/// flipped or the file cut; half of them land in the first `hot` bytes (its headers).
+fn mutate_bytes(bytes: &mut Vec<u8>, hot: usize, pick: &mut dyn FnMut(usize) -> usize) {
+    for _ in 0..1 + pick(3) {
+        if bytes.is_empty() {
+            return;
+        }
+        let span = if pick(2) == 0 { hot.clamp(1, bytes.len()) } else { bytes.len() };
+        let at = pick(span);
+        match pick(4) {
+            kind @ (0 | 1) => {
+                let word = HOSTILE_WORDS[pick(HOSTILE_WORDS.len())].to_le_bytes();
+                let end = (at + 4 + 4 * kind).min(bytes.len());
+                bytes[at..end].copy_from_slice(&word[..end - at]);
+            }
+            2 => bytes[at] ^= 1 << pick(8),
+            _ => bytes.truncate(at),
+        }
+    }
+}
+
 #[test]
 fn mutated_openvdb_files_are_refused_or_read_within_memory_and_time() {
     let _turn = serial();
     let dir = common::scratch("vdb-fuzz");
-    let mut rng = rand_pcg::Pcg64::new(41, 0xda3e_39cb_94b9_5bdb);
-    let mut pick = |n: usize| (rand_core::RngCore::next_u64(&mut rng) % n as u64) as usize;
+    let mut pick = choices(41);
     let seeds =
         ["smoke.vdb", "constant.vdb", "affine.vdb"].map(|f| std::fs::read(common::asset("grids").join(f)).unwrap());
     let (mut refused, mut read) = (0, 0);
     for case in 0..1500 {
         let mut bytes = seeds[case % seeds.len()].clone();
-        // Half the mutations land in the first 600 bytes (header, descriptors, metadata,
-        // transform and the start of the topology), the rest anywhere.
-        for _ in 0..1 + pick(3) {
-            let span = if pick(2) == 0 { 600.min(bytes.len()) } else { bytes.len() };
-            let at = pick(span);
-            match pick(4) {
-                0 => {
-                    let word = HOSTILE_WORDS[pick(HOSTILE_WORDS.len())].to_le_bytes();
-                    let end = (at + 4).min(bytes.len());
-                    bytes[at..end].copy_from_slice(&word[..end - at]);
-                }
-                1 => {
-                    let word = HOSTILE_WORDS[pick(HOSTILE_WORDS.len())].to_le_bytes();
-                    let end = (at + 8).min(bytes.len());
-                    bytes[at..end].copy_from_slice(&word[..end - at]);
-                }
-                2 => bytes[at] ^= 1 << pick(8),
-                _ => bytes.truncate(at),
-            }
-        }
+        // The first 600 bytes hold the header, descriptors, metadata, transform and the
+        // start of the topology.
+        mutate_bytes(&mut bytes, 600, &mut pick);
         let path = dir.write("case.vdb", &bytes);
         let start = Instant::now();
         let (result, peak) = peak_of(|| lucent::medium::grid::DensityGrid::load_vdb(&path, None));
@@ -569,6 +578,124 @@ fn mutated_openvdb_files_are_refused_or_read_within_memory_and_time() {
     }
     // Both outcomes are exercised: a mutation in the leaf values still reads.
     assert!(refused > 100 && read > 100, "{refused} refused, {read} read");
+}
+
+/// Loads every mutant of `seeds` that `make` builds (from the seed's index and the choice
+/// stream) within `FUZZ_LIMIT` and `CASE_TIME`, checking each outcome; returns how many
+/// were refused and how many loaded.
+fn fuzz_loads(
+    what: &str,
+    cases: usize,
+    seed: u64,
+    mut make: impl FnMut(usize, &mut dyn FnMut(usize) -> usize) -> Vec<u8>,
+) -> (usize, usize) {
+    let mut pick = choices(seed);
+    let (mut refused, mut loaded) = (0, 0);
+    for case in 0..cases {
+        let bytes = make(case, &mut pick);
+        let outcome = exercise(bytes, FUZZ_LIMIT).unwrap_or_else(|e| panic!("{what} case {case}: {e}"));
+        check_outcome(&outcome, &FUZZ_LIMIT, &format!("{what} case {case}")).unwrap_or_else(|e| panic!("{e}"));
+        match outcome.result {
+            Ok(_) => loaded += 1,
+            Err(_) => refused += 1,
+        }
+    }
+    (refused, loaded)
+}
+
+/// A 16x16 lossless WebP of a gradient.
+fn tiny_webp() -> Vec<u8> {
+    let image = image::RgbaImage::from_fn(16, 16, |x, y| image::Rgba([(x * 16) as u8, (y * 16) as u8, 128, 255]));
+    let mut out = Vec::new();
+    image::codecs::webp::WebPEncoder::new_lossless(&mut out)
+        .encode(image.as_raw(), 16, 16, image::ExtendedColorType::Rgba8)
+        .unwrap();
+    out
+}
+
+#[test]
+fn mutated_ktx2_and_webp_textures_are_refused_or_loaded_within_the_limit_and_in_time() {
+    let _turn = serial();
+    let ktx2 = |name: &str| std::fs::read(common::asset("ktx2").join(name)).unwrap();
+    let seeds = [
+        ("KHR_texture_basisu", "image/ktx2", ktx2("uastc.ktx2")),
+        ("KHR_texture_basisu", "image/ktx2", ktx2("etc1s.ktx2")),
+        ("EXT_texture_webp", "image/webp", tiny_webp()),
+    ];
+    // The textured quad, its texture showing a second image (the mutant) through the
+    // extension, as a file using it would.
+    let (refused, loaded) = fuzz_loads("image", 900, 42, |case, pick| {
+        let (extension, mime, seed) = &seeds[case % seeds.len()];
+        let mut image = seed.clone();
+        // KTX2's header and level index fill its first 104 bytes; a WebP's chunk headers
+        // its first 30.
+        mutate_bytes(&mut image, if mime.ends_with("ktx2") { 104 } else { 30 }, pick);
+        let Parts { mut doc, buffer, .. } = Grid { n: 1, ..Grid::default() }.parts();
+        let uri = format!("data:{mime};base64,{}", base64::engine::general_purpose::STANDARD.encode(&image));
+        doc["images"].as_array_mut().unwrap().push(json!({"uri": uri}));
+        doc["textures"][0]["extensions"] = json!({ *extension: {"source": 1} });
+        doc["extensionsUsed"] = json!([extension]);
+        encode(doc, &buffer)
+    });
+    assert!(refused > 100 && loaded > 30, "{refused} refused, {loaded} loaded");
+}
+
+#[test]
+fn mutated_meshopt_and_draco_streams_are_refused_or_loaded_within_the_limit_and_in_time() {
+    let _turn = serial();
+    let seed = |dir: &str| {
+        let doc: Value =
+            serde_json::from_slice(&std::fs::read(common::asset(dir).join("cornell-box-glass.gltf")).unwrap()).unwrap();
+        (doc, std::fs::read(common::asset(dir).join("cornell-box-glass.bin")).unwrap())
+    };
+    let seeds = [seed("meshopt"), seed("draco")];
+    let (refused, loaded) = fuzz_loads("compressed mesh", 300, 43, |case, pick| {
+        let (mut doc, mut buffer) = seeds[case % seeds.len()].clone();
+        if pick(2) == 0 {
+            mutate_bytes(&mut buffer, 0, pick);
+        } else {
+            // A number in a buffer view, mesh or accessor (a count, stride, length,
+            // offset, index or attribute id) made hostile.
+            let mut numbers = Vec::new();
+            for key in ["bufferViews", "meshes", "accessors"] {
+                number_paths(&doc[key], &mut vec![Value::from(key)], &mut numbers);
+            }
+            let path = &numbers[pick(numbers.len())];
+            let mut at = &mut doc;
+            for step in path {
+                at = match step {
+                    Value::String(k) => &mut at[k.as_str()],
+                    Value::Number(i) => &mut at[i.as_u64().unwrap() as usize],
+                    _ => unreachable!("paths are keys and indices"),
+                };
+            }
+            *at = json!(HOSTILE_WORDS[pick(HOSTILE_WORDS.len())]);
+        }
+        encode(doc, &buffer)
+    });
+    assert!(refused > 50 && loaded > 30, "{refused} refused, {loaded} loaded");
+}
+
+/// The paths (keys and indices) of every number under `v`.
+fn number_paths(v: &Value, path: &mut Vec<Value>, out: &mut Vec<Vec<Value>>) {
+    match v {
+        Value::Number(_) => out.push(path.clone()),
+        Value::Array(items) => {
+            for (i, item) in items.iter().enumerate() {
+                path.push(Value::from(i));
+                number_paths(item, path, out);
+                path.pop();
+            }
+        }
+        Value::Object(map) => {
+            for (k, item) in map {
+                path.push(Value::from(k.as_str()));
+                number_paths(item, path, out);
+                path.pop();
+            }
+        }
+        _ => {}
+    }
 }
 
 // --- the film ---

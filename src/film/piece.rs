@@ -86,6 +86,13 @@ impl Piece {
         if header.format != FORMAT {
             return Err(fail(&format!("format {} (this build reads {FORMAT})", header.format)));
         }
+        let max = crate::params::MAX_SIDE;
+        if u64::from(header.width) > max || u64::from(header.height) > max {
+            return Err(fail(&format!(
+                "a {}x{} frame is larger than any render ({max} a side)",
+                header.width, header.height
+            )));
+        }
         if header.first.checked_add(header.count).is_none() {
             return Err(fail(&format!(
                 "samples {}..{}+{} run past the last sample number",

@@ -73,8 +73,7 @@ crate::choice_enum! {
 /// Rays one distribution-ray-traced sample may trace before it needs confirmation.
 pub const DRT_RAY_BUDGET: f64 = 2e5;
 
-/// Largest image side in pixels.
-pub const MAX_SIDE: u64 = 16384;
+pub use crate::params::MAX_SIDE;
 
 const fn int(min: u64, max: u64) -> Domain {
     Domain::Int { min, max, optional: false }

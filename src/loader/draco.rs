@@ -8,7 +8,6 @@ use gltf::buffer;
 use gltf::json::accessor::{ComponentType, GenericComponentType};
 use gltf::json::validation::{Checked, USize64};
 use gltf::json::{self, Index, Root, Value};
-use std::panic::{AssertUnwindSafe, catch_unwind};
 
 /// The extension's name, in `extensionsUsed` and on mesh primitives.
 pub(super) const EXTENSION: &str = "KHR_draco_mesh_compression";
@@ -78,15 +77,11 @@ fn decode_primitive(
     limits.max_decoded_bytes = tally.room();
     let mut mesh = Mesh::new();
     // draco-core is written not to panic on bad streams (its fuzzing says so); should one
-    // slip through, the file is refused rather than the program ended.
-    let status = catch_unwind(AssertUnwindSafe(|| {
+    // slip through, the guard refuses the file rather than the program ending.
+    crate::guard::decode("draco-core", || {
         MeshDecoder::new().decode(&mut DecoderBuffer::new(bytes).with_limits(limits), &mut mesh)
-    }));
-    match status {
-        Ok(Ok(())) => {}
-        Ok(Err(e)) => return Err(format!("the Draco stream does not decode ({e})")),
-        Err(_) => return Err("the Draco stream does not decode (the decoder failed)".into()),
-    }
+    })?
+    .map_err(|e| format!("the Draco stream does not decode ({e})"))?;
     let accessor = |i: usize| json.accessors.get(i).ok_or_else(|| format!("accessor {i} does not exist"));
     let mut out = Vec::new();
     let names = ext["attributes"].as_object().ok_or("attributes are missing")?;
