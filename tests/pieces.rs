@@ -60,27 +60,34 @@ fn pieces_by_sample_range_merge_to_the_single_process_image_bit_for_bit() {
     let bytes = std::fs::read(d.join("a.part")).unwrap();
     std::fs::write(d.join("short.part"), &bytes[..bytes.len() - 7]).unwrap();
     refused(&["merge", &p("short.part"), "--out", &bad], "bytes do not hold");
-    // A header claiming a 100000x100000 frame around a one-pixel window.
+    // A header claiming a frame larger than any render around a one-pixel window, and
+    // one whose pixel count times the bytes per pixel overflows u64 (it wrapped to a small
+    // number and the allocation panicked).
     let text = String::from_utf8_lossy(&bytes);
-    let header =
-        text.lines().next().unwrap().replace("\"width\":24,\"height\":18", "\"width\":100000,\"height\":100000");
-    let header = header.replace("\"x1\":24,\"y1\":18", "\"x1\":1,\"y1\":1");
-    std::fs::write(d.join("huge.part"), [format!("{header}\n").as_bytes(), &[0u8; 80]].concat()).unwrap();
-    refused(&["merge", &p("huge.part"), "--out", &bad], "merging a 100000x100000 frame needs about 240.0 GB");
-    // A frame whose pixel count times the bytes per pixel overflows u64 (it wrapped to a
-    // small number and the allocation panicked), and a sample range past u32.
-    let wide = header.replace("\"width\":100000,\"height\":100000", "\"width\":4294967295,\"height\":4294967295");
-    std::fs::write(d.join("wide.part"), [format!("{wide}\n").as_bytes(), &[0u8; 80]].concat()).unwrap();
-    refused(
-        &["merge", &p("wide.part"), "--out", &bad],
-        "merging a 4294967295x4294967295 frame needs about more than 18 EB",
-    );
-    let past = text.lines().next().unwrap().replace("\"first\":0,", "\"first\":4294967294,");
-    std::fs::write(
-        d.join("past.part"),
-        [format!("{past}\n").as_bytes(), &bytes[text.lines().next().unwrap().len() + 1..]].concat(),
-    )
-    .unwrap();
+    let first = text.lines().next().unwrap();
+    let framed = |w: u32, h: u32| {
+        let header = first.replace("\"width\":24,\"height\":18", &format!("\"width\":{w},\"height\":{h}"));
+        [format!("{}\n", header.replace("\"x1\":24,\"y1\":18", "\"x1\":1,\"y1\":1")).as_bytes(), &[0u8; 80]].concat()
+    };
+    for (name, side) in [("huge.part", 100_000), ("wide.part", u32::MAX)] {
+        std::fs::write(d.join(name), framed(side, side)).unwrap();
+        refused(
+            &["merge", &p(name), "--out", &bad],
+            &format!("a {side}x{side} frame is larger than any render (16384 a side)"),
+        );
+    }
+    // The largest frame a render has, merged under a 2 GB address-space limit: refused
+    // against the limit instead of allocated.
+    std::fs::write(d.join("largest.part"), framed(16384, 16384)).unwrap();
+    let merge =
+        format!("ulimit -v 2000000 && exec {} merge {} --out {bad}", env!("CARGO_BIN_EXE_lucent"), p("largest.part"));
+    let out = Command::new("bash").arg("-c").arg(&merge).output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.trim_end().lines().count() == 1, "{err}");
+    assert!(err.contains("merging a 16384x16384 frame needs about 6.4 GB, over the memory limit of 1."), "{err}");
+    // A sample range past u32.
+    let past = first.replace("\"first\":0,", "\"first\":4294967294,");
+    std::fs::write(d.join("past.part"), [format!("{past}\n").as_bytes(), &bytes[first.len() + 1..]].concat()).unwrap();
     refused(&["merge", &p("past.part"), "--out", &bad], "run past the last sample number");
     std::fs::write(d.join("junk.part"), b"not a piece\n").unwrap();
     refused(&["merge", &p("junk.part"), "--out", &bad], "bad header");
