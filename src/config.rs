@@ -89,6 +89,14 @@ impl ViewFile {
         {
             return Err(fail(&"the camera needs a finite position and rotation and 0 < yfov < pi"));
         }
+        // Each edit's values by its table (kind and range); which material or light it
+        // names is checked against the scene when the edits are applied.
+        for e in &view.materials {
+            checked(MATERIAL_PARAMS, e, "material").map_err(|e| fail(&e))?;
+        }
+        for e in &view.lights {
+            checked(LIGHT_PARAMS, e, "light").map_err(|e| fail(&e))?;
+        }
         Ok(view)
     }
 
@@ -161,18 +169,34 @@ fn apply<T>(
             Some(item) => return Err(fail(format!("the scene's {what} {} is {:?}", e.index, name(item)))),
             None => return Err(fail(format!("the scene has no such {what} (it has {})", items.len()))),
         };
-        if let Some(key) = e.values.keys().find(|k| edit::find(table, k).is_none()) {
-            let keys: Vec<&str> = table.iter().map(|p| p.key).collect();
-            return Err(fail(format!("unknown parameter {key:?} (known: {})", keys.join(", "))));
-        }
-        for p in table {
-            if let Some(value) = e.values.get(p.key) {
-                let value = from_toml(p.kind, value).map_err(|err| fail(format!("{}: {err}", p.key)))?;
-                p.try_set(item, value).map_err(fail)?;
-            }
+        for (p, value) in checked(table, e, what)? {
+            p.try_set(item, value).map_err(fail)?;
         }
     }
     Ok(())
+}
+
+/// An edit's values as its table's parameters, in table order, each of its kind and in its
+/// range; the error is one line naming the edit.
+fn checked<T>(
+    table: &'static [Param<T>],
+    e: &Edit,
+    what: &str,
+) -> Result<Vec<(&'static Param<T>, ParamValue)>, String> {
+    let fail = |reason: String| format!("view file: {what} {} {:?}: {reason}", e.index, e.name);
+    if let Some(key) = e.values.keys().find(|k| edit::find(table, k).is_none()) {
+        let keys: Vec<&str> = table.iter().map(|p| p.key).collect();
+        return Err(fail(format!("unknown parameter {key:?} (known: {})", keys.join(", "))));
+    }
+    let mut out = Vec::new();
+    for p in table {
+        if let Some(value) = e.values.get(p.key) {
+            let value = from_toml(p.kind, value).map_err(|err| fail(format!("{}: {err}", p.key)))?;
+            p.kind.check(value).map_err(|err| fail(format!("{}: {err}", p.key)))?;
+            out.push((p, value));
+        }
+    }
+    Ok(out)
 }
 
 /// A number as the shortest decimal that reads back as the same f32.

@@ -698,6 +698,168 @@ fn number_paths(v: &Value, path: &mut Vec<Value>, out: &mut Vec<Vec<Value>>) {
     }
 }
 
+/// What reading a view file or merging a small piece may take at the peak, with room to
+/// spare (a 2 kB file parses in well under 1 MB; an 8x6 piece merges in less).
+const SMALL_FILE_READING: u64 = 16 * MB;
+
+/// A saved view with a camera, an environment, display settings and a material edit: every
+/// table a view file has.
+fn seed_view(dir: &Path) -> PathBuf {
+    use lucent::config::{Edit, ViewFile};
+    let mut view = ViewFile { camera: Some(builtin::cornell_box().cameras[0].1), ..ViewFile::default() };
+    view.settings.width = 32;
+    view.environment.background = glam::Vec3::new(0.2, 0.3, 0.4);
+    view.display.exposure = 0.5;
+    let values = [("roughness".to_string(), toml::Value::Float(0.25))].into_iter().collect();
+    view.materials.push(Edit { index: 0, name: "white".into(), values });
+    let path = dir.join("seed.toml");
+    view.save(&path).unwrap();
+    path
+}
+
+/// Hostile TOML values: not numbers, huge, negative, empty and of the wrong type.
+fn hostile_toml(k: usize) -> toml::Value {
+    use toml::Value as T;
+    [
+        T::Float(f64::NAN),
+        T::Float(f64::INFINITY),
+        T::Float(-1.0),
+        T::Float(1e308),
+        T::Integer(i64::MAX),
+        T::Integer(-1),
+        T::Integer(0),
+        T::String("\u{0}".repeat(3)),
+        T::Array(vec![]),
+        T::Boolean(true),
+    ][k]
+        .clone()
+}
+
+/// The paths to every leaf value of a TOML table.
+fn toml_leaves(v: &toml::Value, path: &mut Vec<String>, out: &mut Vec<Vec<String>>) {
+    match v {
+        toml::Value::Table(t) => t.iter().for_each(|(k, item)| {
+            path.push(k.clone());
+            toml_leaves(item, path, out);
+            path.pop();
+        }),
+        toml::Value::Array(items) => items.iter().enumerate().for_each(|(i, item)| {
+            path.push(i.to_string());
+            toml_leaves(item, path, out);
+            path.pop();
+        }),
+        _ => out.push(path.clone()),
+    }
+}
+
+#[test]
+fn mutated_view_files_are_refused_in_one_line_or_load_to_a_view_that_saves_and_loads_again() {
+    use lucent::config::ViewFile;
+    let _turn = serial();
+    let dir = common::scratch("view-fuzz");
+    let text = std::fs::read_to_string(seed_view(&dir)).unwrap();
+    let seed: toml::Value = toml::from_str(&text).unwrap();
+    let mut leaves = Vec::new();
+    toml_leaves(&seed, &mut Vec::new(), &mut leaves);
+    let mut pick = choices(44);
+    let (mut refused, mut loaded) = (0, 0);
+    for case in 0..1500 {
+        let bytes = if pick(4) == 0 {
+            let mut bytes = text.clone().into_bytes();
+            mutate_bytes(&mut bytes, text.len(), &mut pick);
+            bytes
+        } else {
+            // A value replaced by a hostile one, or its key removed.
+            let mut view = seed.clone();
+            let path = &leaves[pick(leaves.len())];
+            let mut at = &mut view;
+            for step in &path[..path.len() - 1] {
+                at = match at {
+                    toml::Value::Array(items) => &mut items[step.parse::<usize>().unwrap()],
+                    other => &mut other[step.as_str()],
+                };
+            }
+            let last = &path[path.len() - 1];
+            match (at, pick(11)) {
+                (toml::Value::Table(t), 10) => drop(t.remove(last)),
+                (toml::Value::Array(items), _) => items[last.parse::<usize>().unwrap()] = hostile_toml(pick(10)),
+                (other, k) => other[last.as_str()] = hostile_toml(k % 10),
+            }
+            toml::to_string(&view).unwrap().into_bytes()
+        };
+        let path = dir.write("case.toml", &bytes);
+        let (result, peak) = peak_of(|| ViewFile::load(&path));
+        assert!(peak <= SMALL_FILE_READING, "case {case}: reading took {peak} bytes at the peak");
+        match result {
+            Ok(view) => {
+                // What loads holds only values the tables allow: it writes and reads back
+                // unchanged (a NaN would not compare equal, nor survive TOML).
+                let again = dir.join("again.toml");
+                view.save(&again).unwrap_or_else(|e| panic!("case {case}: {e}"));
+                assert_eq!(ViewFile::load(&again).as_ref(), Ok(&view), "case {case}");
+                loaded += 1;
+            }
+            Err(e) => {
+                assert!(!e.contains('\n') && e.contains("case.toml"), "case {case}: {e}");
+                refused += 1;
+            }
+        }
+    }
+    assert!(refused > 300 && loaded > 100, "{refused} refused, {loaded} loaded");
+}
+
+#[test]
+fn mutated_render_pieces_are_refused_in_one_line_or_merge_within_memory() {
+    let _turn = serial();
+    let dir = common::scratch("piece-fuzz");
+    let seed_path = dir.join("seed.part");
+    let status = std::process::Command::new(env!("CARGO_BIN_EXE_lucent"))
+        .args(["render", "--width", "8", "--height", "6", "--samples", "0..2", "--out"])
+        .arg(&seed_path)
+        .output()
+        .unwrap();
+    assert!(status.status.success(), "{}", String::from_utf8_lossy(&status.stderr));
+    let seed = std::fs::read(&seed_path).unwrap();
+    let header_len = seed.iter().position(|&b| b == b'\n').unwrap() + 1;
+    let header: Value = serde_json::from_slice(&seed[..header_len]).unwrap();
+    let mut numbers = Vec::new();
+    number_paths(&header, &mut Vec::new(), &mut numbers);
+    let mut pick = choices(45);
+    let (mut refused, mut merged) = (0, 0);
+    for case in 0..1000 {
+        let bytes = if pick(2) == 0 {
+            let mut bytes = seed.clone();
+            mutate_bytes(&mut bytes, header_len, &mut pick);
+            bytes
+        } else {
+            // A number of the header (frame, window, sample range, display) made hostile.
+            let mut h = header.clone();
+            let path = &numbers[pick(numbers.len())];
+            let mut at = &mut h;
+            for step in path {
+                at = match step {
+                    Value::String(k) => &mut at[k.as_str()],
+                    Value::Number(i) => &mut at[i.as_u64().unwrap() as usize],
+                    _ => unreachable!("paths are keys and indices"),
+                };
+            }
+            *at = json!(HOSTILE_WORDS[pick(HOSTILE_WORDS.len())]);
+            [format!("{h}\n").as_bytes(), &seed[header_len..]].concat()
+        };
+        let path = dir.write("case.part", &bytes);
+        let (result, peak) = peak_of(|| lucent::film::merge::merge(std::slice::from_ref(&path), false, None));
+        assert!(peak <= SMALL_FILE_READING, "case {case}: merging took {peak} bytes at the peak");
+        match result {
+            Ok(_) => merged += 1,
+            Err(e) => {
+                assert!(!e.contains('\n') && e.contains("case.part"), "case {case}: {e}");
+                refused += 1;
+            }
+        }
+    }
+    assert!(refused > 300 && merged > 50, "{refused} refused, {merged} merged");
+}
+
 // --- the film ---
 
 #[test]

@@ -116,6 +116,12 @@ fn a_bad_map_is_a_one_line_error() {
     assert!(err.contains("/no/such/sky.hdr") && !err.contains('\n'), "{err}");
     let negative = EnvSettings { intensity: -1.0, background: Vec3::ONE, ..EnvSettings::default() };
     assert!(Environment::load(negative).err().unwrap().contains("intensity"));
+    // A FIFO blocked the read forever (a view file can name one); it is refused first.
+    let dir = common::scratch("env-fifo");
+    let fifo = dir.join("sky.hdr");
+    assert!(std::process::Command::new("mkfifo").arg(&fifo).status().unwrap().success());
+    let err = Environment::load(EnvSettings { map: Some(fifo), ..EnvSettings::default() }).err().unwrap();
+    assert!(err.contains("sky.hdr: not a regular file"), "{err}");
 }
 
 #[test]

@@ -15,7 +15,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
     ("spectrum", &["math"]),
     ("bsdf", &["math", "memory", "guard", "spectrum"]),
     ("medium", &["math", "memory", "guard", "spectrum"]),
-    ("scene", &["math", "medium", "spectrum", "bsdf", "params"]),
+    ("scene", &["math", "medium", "memory", "guard", "spectrum", "bsdf", "params"]),
     ("loader", &["math", "medium", "memory", "guard", "params", "spectrum", "bsdf", "scene"]),
     ("integrator", &["math", "medium", "spectrum", "params", "bsdf", "scene"]),
     ("film", &["math", "memory", "guard", "spectrum", "params"]),

@@ -85,7 +85,10 @@ impl EnvMap {
         let image = if path == Path::new(BUILT_IN) {
             image::load_from_memory_with_format(BUILT_IN_HDR, image::ImageFormat::Hdr)
         } else {
-            image::open(path)
+            // A FIFO would block the read forever and a device never ends: regular files only.
+            crate::memory::regular_file_size(path, crate::memory::Limits::from_machine().memory)
+                .map_err(|e| fail(&e))?;
+            crate::guard::decode("the image decoder", || image::open(path)).map_err(|e| fail(&e))?
         };
         let image = image.map_err(|e| fail(&image_error(path, e)))?.into_rgb32f();
         let (width, height) = (image.width() as usize, image.height() as usize);
