@@ -85,22 +85,17 @@ fn read_uri(what: &str, uri: &str, base: Option<&Path>, tally: &Tally) -> Result
             base.ok_or_else(|| fail("a file loaded from memory cannot name other files".into()))?.join(&*decoded)
         }
     };
-    let meta = std::fs::metadata(&path).map_err(|e| fail(io_reason(&e)))?;
-    if !meta.is_file() {
-        return Err(fail("not a regular file".into()));
-    }
-    if meta.len() > tally.room() {
+    let size = crate::memory::regular_file_size(&path, u64::MAX).map_err(fail)?;
+    if size > tally.room() {
         return Err(Refusal::TooLarge(format!(
             "{what} ({uri}) is {}, so loading needs at least {}, over the memory limit of {}",
-            format_bytes(meta.len()),
-            format_bytes(tally.used.saturating_add(meta.len())),
+            format_bytes(size),
+            format_bytes(tally.used.saturating_add(size)),
             format_bytes(tally.limit)
         )));
     }
-    let mut data = Vec::with_capacity(meta.len() as usize);
-    std::fs::File::open(&path)
-        .and_then(|f| f.take(meta.len()).read_to_end(&mut data))
-        .map_err(|e| fail(io_reason(&e)))?;
+    let mut data = Vec::with_capacity(size as usize);
+    std::fs::File::open(&path).and_then(|f| f.take(size).read_to_end(&mut data)).map_err(|e| fail(io_reason(&e)))?;
     Ok(data)
 }
 
