@@ -73,7 +73,7 @@ impl ViewFile {
     /// distribution ray tracer's ray budget is checked once they have).
     pub fn load(path: &Path) -> Result<Self, String> {
         let fail = |e: &dyn std::fmt::Display| format!("cannot read view file {}: {e}", path.display());
-        let text = std::fs::read_to_string(path).map_err(|e| fail(&e))?;
+        let text = crate::memory::read_text(path).map_err(|e| fail(&e))?;
         let view: ViewFile = toml::from_str(&text).map_err(|e| fail(&crate::params::toml_error(&text, &e)))?;
         let mut view = view;
         if let Some(map) = view.environment.map.as_mut().filter(|m| m.is_relative() && *m != Path::new(BUILT_IN)) {

@@ -32,6 +32,20 @@ impl Limits {
     }
 }
 
+/// Most bytes a settings file may have (a view file, a sidecar): a few kB in practice,
+/// and a view file editing every material of a large scene stays far below.
+pub const MAX_TEXT_FILE: u64 = 16 << 20;
+
+/// The text of the file at `path` if it is a regular UTF-8 file of at most
+/// `MAX_TEXT_FILE` bytes (see `regular_file_size`).
+pub fn read_text(path: &std::path::Path) -> Result<String, String> {
+    use std::io::Read;
+    let size = regular_file_size(path, MAX_TEXT_FILE)?;
+    let mut text = String::with_capacity(size as usize);
+    std::fs::File::open(path).and_then(|f| f.take(size).read_to_string(&mut text)).map_err(|e| e.to_string())?;
+    Ok(text)
+}
+
 /// A "Name: value kB" field of /proc/meminfo or /proc/self/status, in bytes.
 fn meminfo_field(text: &str, name: &str) -> Option<u64> {
     let line = text.lines().find(|l| l.starts_with(name))?;

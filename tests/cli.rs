@@ -87,6 +87,16 @@ fn bad_input_gives_one_line_errors_and_no_file() {
     fails_in_one_line(&["render", "--out", dir.join("x.jpg").to_str().unwrap()], ".png or .exr", &dir.join("x.jpg"));
     let unwritable = dir.join("missing-dir/x.png");
     fails_in_one_line(&["render", "--out", unwritable.to_str().unwrap()], "cannot write", &unwritable);
+    // A FIFO blocked the read forever and /dev/zero read until memory ran out.
+    let fifos = common::scratch("cli-fifo");
+    for name in ["view.toml", "piece.part"] {
+        assert!(Command::new("mkfifo").arg(fifos.join(name)).status().unwrap().success());
+    }
+    let view = fifos.join("view.toml");
+    fails_in_one_line(&["render", "--view", view.to_str().unwrap(), "--out", o], "view.toml: not a regular file", &out);
+    fails_in_one_line(&["render", "--view", "/dev/zero", "--out", o], "/dev/zero: not a regular file", &out);
+    let piece = fifos.join("piece.part");
+    fails_in_one_line(&["merge", piece.to_str().unwrap(), "--out", o], "piece.part: not a regular file", &out);
     let scene = common::scratch("cli-garbage");
     let garbage = scene.join("broken.glb");
     std::fs::write(&garbage, b"glTF\x02\x00\x00\x00garbage").unwrap();

@@ -19,7 +19,7 @@ pub fn scene_hash(path: Option<&Path>) -> Result<String, String> {
         Some(p) => {
             hash.update(std::fs::read(p).map_err(|e| format!("{}: {e}", p.display()))?);
             for sidecar in [crate::loader::sidecar::path_for(p), crate::loader::media::path_for(p)] {
-                if let Ok(bytes) = std::fs::read(&sidecar) {
+                if let Ok(bytes) = crate::memory::read_text(&sidecar) {
                     hash.update(bytes);
                 }
             }

@@ -78,8 +78,9 @@ impl Piece {
     /// Reads a piece's header. A file whose size does not match it is an error.
     pub fn open(path: &Path) -> Result<Self, String> {
         let fail = |e: &dyn std::fmt::Display| format!("piece {}: {e}", path.display());
+        // A FIFO would block the read forever: regular files only.
+        let size = crate::memory::regular_file_size(path, u64::MAX).map_err(|e| fail(&e))?;
         let file = std::fs::File::open(path).map_err(|e| fail(&e))?;
-        let size = file.metadata().map_err(|e| fail(&e))?.len();
         let mut line = String::new();
         std::io::BufReader::new(file).take(64 * 1024).read_line(&mut line).map_err(|e| fail(&e))?;
         let header: Header = serde_json::from_str(line.trim_end()).map_err(|e| fail(&format!("bad header: {e}")))?;

@@ -40,7 +40,7 @@ pub fn apply(desc: &mut SceneDesc, scene: &Path) -> Result<(), String> {
         return Ok(());
     }
     let fail = |e: &dyn std::fmt::Display| format!("materials sidecar {}: {e}", path.display());
-    let text = std::fs::read_to_string(&path).map_err(|e| fail(&e))?;
+    let text = crate::memory::read_text(&path).map_err(|e| fail(&e))?;
     let sidecar: Sidecar = toml::from_str(&text).map_err(|e| fail(&crate::params::toml_error(&text, &e)))?;
     let base = path.parent().unwrap_or(Path::new("."));
     let mut tables: HashMap<PathBuf, Arc<MerlTable>> = HashMap::new();
