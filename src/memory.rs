@@ -69,7 +69,9 @@ fn cgroup_limit(text: &str) -> Option<u64> {
 /// What the memory cgroup of this process still allows (limit less usage), from the
 /// unified hierarchy (memory.max, memory.current) or the v1 controller
 /// (memory.limit_in_bytes, memory.usage_in_bytes), under its path in /proc/self/cgroup or
-/// at the mount's root (where a container sees its own cgroup).
+/// at the mount's root (where a container sees its own cgroup). The usage leaves out the
+/// inactive page cache (memory.stat's inactive_file, or total_inactive_file in v1), which
+/// the kernel reclaims before it runs out: after a build it can fill most of the limit.
 fn cgroup_room() -> Option<u64> {
     let membership = std::fs::read_to_string("/proc/self/cgroup").ok()?;
     let path_of = |prefix: &str| {
@@ -79,18 +81,26 @@ fn cgroup_room() -> Option<u64> {
             (controllers == prefix || controllers.split(',').any(|c| c == prefix)).then(|| path.to_string())
         })
     };
+    let v2 = ("memory.max", "memory.current", "inactive_file");
+    let v1 = ("memory.limit_in_bytes", "memory.usage_in_bytes", "total_inactive_file");
     let candidates = [
-        path_of("").map(|p| (format!("/sys/fs/cgroup{p}"), "memory.max", "memory.current")),
-        Some(("/sys/fs/cgroup".to_string(), "memory.max", "memory.current")),
-        path_of("memory")
-            .map(|p| (format!("/sys/fs/cgroup/memory{p}"), "memory.limit_in_bytes", "memory.usage_in_bytes")),
-        Some(("/sys/fs/cgroup/memory".to_string(), "memory.limit_in_bytes", "memory.usage_in_bytes")),
+        path_of("").map(|p| (format!("/sys/fs/cgroup{p}"), v2)),
+        Some(("/sys/fs/cgroup".to_string(), v2)),
+        path_of("memory").map(|p| (format!("/sys/fs/cgroup/memory{p}"), v1)),
+        Some(("/sys/fs/cgroup/memory".to_string(), v1)),
     ];
-    candidates.into_iter().flatten().find_map(|(dir, max, current)| {
-        let limit = cgroup_limit(&std::fs::read_to_string(format!("{dir}/{max}")).ok()?)?;
-        let used = std::fs::read_to_string(format!("{dir}/{current}")).ok()?.trim().parse::<u64>().ok()?;
-        Some(limit.saturating_sub(used))
+    candidates.into_iter().flatten().find_map(|(dir, (max, current, inactive))| {
+        let read = |name: &str| std::fs::read_to_string(format!("{dir}/{name}")).ok();
+        let limit = cgroup_limit(&read(max)?)?;
+        let used = read(current)?.trim().parse::<u64>().ok()?;
+        let cache = read("memory.stat").as_deref().and_then(|s| stat_field(s, inactive)).unwrap_or(0);
+        Some(limit.saturating_sub(used.saturating_sub(cache)))
     })
+}
+
+/// A "name value" line of a cgroup's memory.stat.
+fn stat_field(stat: &str, name: &str) -> Option<u64> {
+    stat.lines().find_map(|l| l.strip_prefix(name)?.strip_prefix(' ')?.trim().parse().ok())
 }
 
 impl Default for Limits {
@@ -148,6 +158,9 @@ mod tests {
         assert_eq!(cgroup_limit("max\n"), None);
         assert_eq!(cgroup_limit("9223372036854771712\n"), None);
         assert_eq!(cgroup_limit("2147483648\n"), Some(2 << 30));
+        let stat = "active_file 100\ninactive_file 5000\ntotal_inactive_file 7000\n";
+        assert_eq!(stat_field(stat, "inactive_file"), Some(5000));
+        assert_eq!(stat_field(stat, "total_inactive_file"), Some(7000));
     }
 
     #[test]
