@@ -660,20 +660,20 @@ fn mutated_meshopt_and_draco_streams_are_refused_or_loaded_within_the_limit_and_
             for key in ["bufferViews", "meshes", "accessors"] {
                 number_paths(&doc[key], &mut vec![Value::from(key)], &mut numbers);
             }
-            let path = &numbers[pick(numbers.len())];
-            let mut at = &mut doc;
-            for step in path {
-                at = match step {
-                    Value::String(k) => &mut at[k.as_str()],
-                    Value::Number(i) => &mut at[i.as_u64().unwrap() as usize],
-                    _ => unreachable!("paths are keys and indices"),
-                };
-            }
-            *at = json!(HOSTILE_WORDS[pick(HOSTILE_WORDS.len())]);
+            *value_at(&mut doc, &numbers[pick(numbers.len())]) = json!(HOSTILE_WORDS[pick(HOSTILE_WORDS.len())]);
         }
         encode(doc, &buffer)
     });
     assert!(refused > 50 && loaded > 30, "{refused} refused, {loaded} loaded");
+}
+
+/// The value at `path` (keys and indices, as `number_paths` lists them) under `v`.
+fn value_at<'a>(v: &'a mut Value, path: &[Value]) -> &'a mut Value {
+    path.iter().fold(v, |at, step| match step {
+        Value::String(k) => &mut at[k.as_str()],
+        Value::Number(i) => &mut at[i.as_u64().unwrap() as usize],
+        _ => unreachable!("paths are keys and indices"),
+    })
 }
 
 /// The paths (keys and indices) of every number under `v`.
@@ -834,16 +834,7 @@ fn mutated_render_pieces_are_refused_in_one_line_or_merge_within_memory() {
         } else {
             // A number of the header (frame, window, sample range, display) made hostile.
             let mut h = header.clone();
-            let path = &numbers[pick(numbers.len())];
-            let mut at = &mut h;
-            for step in path {
-                at = match step {
-                    Value::String(k) => &mut at[k.as_str()],
-                    Value::Number(i) => &mut at[i.as_u64().unwrap() as usize],
-                    _ => unreachable!("paths are keys and indices"),
-                };
-            }
-            *at = json!(HOSTILE_WORDS[pick(HOSTILE_WORDS.len())]);
+            *value_at(&mut h, &numbers[pick(numbers.len())]) = json!(HOSTILE_WORDS[pick(HOSTILE_WORDS.len())]);
             [format!("{h}\n").as_bytes(), &seed[header_len..]].concat()
         };
         let path = dir.write("case.part", &bytes);

@@ -27,13 +27,21 @@ for i in range(n):
                 acc.setValueOn((i, j, k), v)
 vdb.write("tests/assets/grids/smoke.vdb", grids=[smoke])
 
-constant = vdb.FloatGrid()
-constant.name = "density"
-acc = constant.getAccessor()
-for i in range(16):
-    for j in range(16):
-        for k in range(16):
-            acc.setValueOn((i, j, k), 1.0)
+
+
+def cube(n, value):
+    """A FloatGrid "density" whose n^3 voxels from the origin are all active at `value`."""
+    grid = vdb.FloatGrid()
+    grid.name = "density"
+    acc = grid.getAccessor()
+    for i in range(n):
+        for j in range(n):
+            for k in range(n):
+                acc.setValueOn((i, j, k), value)
+    return grid
+
+
+constant = cube(16, 1.0)
 vdb.write("tests/assets/grids/constant.vdb", grids=[constant])
 
 vector = vdb.Vec3SGrid()
@@ -41,13 +49,7 @@ vector.name = "velocity"
 vector.getAccessor().setValueOn((0, 0, 0), (1.0, 0.0, 0.0))
 vdb.write("tests/assets/grids/vector.vdb", grids=[vector])
 
-affine = vdb.FloatGrid()
-affine.name = "density"
-acc = affine.getAccessor()
-for i in range(8):
-    for j in range(8):
-        for k in range(8):
-            acc.setValueOn((i, j, k), 1.0)
+affine = cube(8, 1.0)
 c, s = math.cos(0.3), math.sin(0.3)
 affine.transform = vdb.createLinearTransform([[c, -s, 0, 0], [s, c, 0, 0], [0, 0, 1, 0], [0.5, 0.25, 0, 1]])
 vdb.write("tests/assets/grids/affine.vdb", grids=[affine])
