@@ -346,8 +346,8 @@ pub struct RenderArgs {
     /// or a cropped image).
     #[arg(long, value_name = "X0,Y0,X1,Y1")]
     pub region: Option<String>,
-    /// Denoise with Intel Open Image Denoise (a build with --features denoise): --out gets
-    /// the denoised image, NAME.noisy.exr the noisy one beside it.
+    /// Denoise with Intel Open Image Denoise (loaded where it is installed; see README.md):
+    /// --out gets the denoised image, NAME.noisy.exr the noisy one beside it.
     #[arg(long)]
     pub denoise: bool,
     /// Also write the denoiser's albedo and normal images, NAME.albedo.exr and NAME.normal.exr.
@@ -367,10 +367,14 @@ pub struct ViewArgs {
     /// Render in the window until --spp is reached, save this PNG and an EXR beside it, and exit.
     #[arg(long)]
     pub screenshot: Option<PathBuf>,
-    /// Start with the Denoise toggle on (a build with --features denoise); a --screenshot is
-    /// then the denoised PNG, the noisy EXR and NAME.denoised.exr.
-    #[arg(long)]
+    /// Require Intel Open Image Denoise and start with the Denoise toggle on (the default
+    /// wherever it is installed); a --screenshot is then the denoised PNG, the noisy EXR and
+    /// NAME.denoised.exr.
+    #[arg(long, conflicts_with = "no_denoise")]
     pub denoise: bool,
+    /// Start with the Denoise toggle off, showing the accumulated image.
+    #[arg(long)]
+    pub no_denoise: bool,
     /// Pin this linear image (.exr or .hdr: a reference render, an earlier pin) and show
     /// it split with the live one, instead of the scene's last pinned image.
     #[arg(long, value_name = "IMAGE")]

@@ -38,8 +38,8 @@ pub fn parse() -> Result<args::Command, ExitCode> {
 
 /// What the viewer opens for `lucent view`, checked.
 pub fn launch(args: &args::ViewArgs) -> Result<Launch, String> {
-    if args.denoise && !crate::film::denoise::AVAILABLE {
-        return Err(crate::film::denoise::NOT_BUILT.into());
+    if args.denoise {
+        crate::film::denoise::available()?;
     }
     let view = args.options.resolve(None)?;
     if let Some(shot) = &args.screenshot {
@@ -64,7 +64,7 @@ pub fn launch(args: &args::ViewArgs) -> Result<Launch, String> {
         instancing: args.options.instancing(),
         threads: args.options.threads,
         screenshot: args.screenshot.clone(),
-        denoise: args.denoise,
+        denoise: if args.no_denoise { Some(false) } else { args.denoise.then_some(true) },
         compare: args.compare.clone(),
     })
 }

@@ -34,8 +34,8 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     {
         return Err(format!("--time {t} must be a positive number of seconds"));
     }
-    if args.denoise && !denoise::AVAILABLE {
-        return Err(denoise::NOT_BUILT.into());
+    if args.denoise {
+        denoise::available()?;
     }
     if (args.denoise || args.aovs) && args.out.is_none() {
         return Err("--denoise and --aovs write images: give --out a .png or .exr".into());

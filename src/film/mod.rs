@@ -5,6 +5,7 @@ pub mod adaptive;
 pub mod denoise;
 pub mod false_colour;
 pub mod merge;
+pub mod oidn;
 pub mod output;
 pub mod piece;
 pub mod splat;

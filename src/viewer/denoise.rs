@@ -5,7 +5,7 @@
 //! is denoised again when the job changed, when its spp grew by `RERUN_GROWTH` since the last
 //! one sent, and at a target's final image.
 
-use crate::film::denoise::{AVAILABLE, NOT_BUILT, denoise};
+use crate::film::denoise::{available, denoise};
 use crate::render::Snapshot;
 use glam::Vec3;
 use std::sync::Arc;
@@ -119,8 +119,8 @@ impl Denoiser {
         let Some(snap) = snap.filter(|s| self.enabled && self.busy.is_none() && Self::due(self.sent, s)) else {
             return arrived;
         };
-        if !AVAILABLE || (self.error.is_some() && self.sent.is_some_and(|s| s.0 == snap.generation)) {
-            // Not built in, or it failed on this job already: no retry until the job changes.
+        if available().is_err() || (self.error.is_some() && self.sent.is_some_and(|s| s.0 == snap.generation)) {
+            // Not installed, or it failed on this job already: no retry until the job changes.
             return arrived;
         }
         if self.worker.is_none() {
@@ -166,11 +166,11 @@ impl Denoiser {
         self.error.as_deref()
     }
 
-    /// One line for the panel: how to build it in, the error, or what was denoised and how
+    /// One line for the panel: what to run to install it, the error, or what was denoised and how
     /// long it took.
     pub fn status(&self) -> String {
-        if !AVAILABLE {
-            return NOT_BUILT.into();
+        if let Err(e) = available() {
+            return e;
         }
         if let Some(e) = &self.error {
             return e.clone();
@@ -234,13 +234,17 @@ mod tests {
         assert!(denoiser.worker.is_none() && denoiser.shown(&s).is_none() && denoiser.shown_key().is_none());
     }
 
-    #[cfg(not(feature = "denoise"))]
     #[test]
-    fn without_the_feature_the_toggle_says_how_to_build_it_in() {
+    fn on_it_denoises_where_the_library_is_found_and_otherwise_says_what_to_run() {
         let mut denoiser = Denoiser { enabled: true, ..Denoiser::default() };
         let s = snap(1, 4, true);
         denoiser.poll(Some(&s));
-        assert!(denoiser.worker.is_none() && denoiser.shown(&s).is_none());
-        assert!(denoiser.status().contains("--features denoise") && !denoiser.status().contains('\n'));
+        match available() {
+            Err(e) => {
+                assert!(denoiser.worker.is_none() && denoiser.shown(&s).is_none());
+                assert!(denoiser.status() == e && !e.contains('\n'), "{e}");
+            }
+            Ok(()) => assert!(denoiser.worker.is_some() && denoiser.busy.is_some(), "the snapshot was sent"),
+        }
     }
 }

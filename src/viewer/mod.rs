@@ -61,8 +61,8 @@ pub struct Launch {
     pub threads: Option<usize>,
     /// Render until the target spp, save this PNG (and an EXR beside it) and exit.
     pub screenshot: Option<PathBuf>,
-    /// Start with the Denoise toggle on.
-    pub denoise: bool,
+    /// Start with the Denoise toggle on or off (None: on wherever the library is found).
+    pub denoise: Option<bool>,
     /// Pin this linear image for before/after comparison instead of the scene's last pin.
     pub compare: Option<PathBuf>,
     /// The path "Save glTF" writes to; with a screenshot, written as the viewer exits.
@@ -87,7 +87,7 @@ pub fn run(launch: Launch) -> Result<(), String> {
         save_gltf,
     } = launch;
     if let Some(dir) = path.as_ref().filter(|p| p.is_dir()) {
-        if denoise {
+        if denoise == Some(true) {
             return Err("--denoise needs a scene: pieces carry no albedo and normal images".into());
         }
         return pieces::run(dir.clone(), screenshot.zip(view.settings.target_spp));
@@ -113,7 +113,7 @@ pub fn run(launch: Launch) -> Result<(), String> {
     let mut state = ViewerState::new(scene, path, view.settings, fixed_size, view.display, camera, threads)?;
     state.apply_edits(&view)?;
     state.variant = variant;
-    state.denoiser.enabled = denoise;
+    state.denoiser.enabled = denoise.unwrap_or_else(|| crate::film::denoise::available().is_ok());
     if let Some(gltf) = &save_gltf {
         state.gltf_path = gltf.display().to_string();
     }

@@ -11,7 +11,6 @@ use super::histogram::AutoExposure;
 use super::inspect::Probes;
 use super::progress::{Progress, Target, progress};
 use crate::config::ViewFile;
-use crate::film::denoise::AVAILABLE as DENOISER_BUILT_IN;
 use crate::film::false_colour;
 use crate::film::output::{replace_file, write_image};
 use crate::film::tonemap::Display;
@@ -33,9 +32,11 @@ use std::sync::mpsc::{Receiver, TryRecvError};
 use std::sync::{Arc, atomic::AtomicBool, atomic::Ordering};
 use std::time::{Duration, Instant};
 
-/// Whether jobs ask for the denoiser's AOVs: whenever it is built in, so that toggling it
-/// on shows the image accumulated so far instead of restarting.
-const WANT_AOVS: bool = DENOISER_BUILT_IN;
+/// Whether jobs ask for the denoiser's AOVs: whenever the library is found, so that
+/// toggling it on shows the image accumulated so far instead of restarting.
+fn want_aovs() -> bool {
+    crate::film::denoise::available().is_ok()
+}
 
 /// Divisor of the resolution while the camera moves: a pass at 1/64 of the pixels shows a
 /// first image within a frame. Once the camera stops, each level's first image halves
@@ -184,7 +185,7 @@ impl ViewerState {
         let viewport = UVec2::new(settings.width, settings.height);
         let controller = controller_for(&scene, camera, settings.width as f32 / settings.height as f32);
         let sent = JobKey { scene: Arc::clone(&scene), camera: controller.camera(), settings };
-        let job = Job { scene: Arc::clone(&scene), camera: sent.camera, settings, window: None, aovs: WANT_AOVS };
+        let job = Job { scene: Arc::clone(&scene), camera: sent.camera, settings, window: None, aovs: want_aovs() };
         let session = RenderSession::new_yielding(job, threads).map_err(|e| e.to_string())?;
         let screenshot_dir = default_screenshot_dir(source.as_deref()).to_string_lossy().into_owned();
         let fly_speed = 0.25 * scene.radius().max(1e-3);
@@ -315,7 +316,7 @@ impl ViewerState {
             camera: want.camera,
             settings: want.settings,
             window: None,
-            aovs: WANT_AOVS,
+            aovs: want_aovs(),
         };
         match self.session.set_job(job) {
             Ok(_) => {

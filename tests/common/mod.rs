@@ -12,6 +12,19 @@ use std::ops::Range;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
+/// Whether Open Image Denoise is installed where Lucent finds it; if not, the test named is
+/// skipped, saying so, unless LUCENT_REQUIRE_OIDN is set (as `.ci/run` sets it), which fails it.
+pub fn oidn_installed(test: &str) -> bool {
+    match lucent::film::denoise::available() {
+        Ok(()) => true,
+        Err(e) => {
+            assert!(std::env::var_os("LUCENT_REQUIRE_OIDN").is_none(), "LUCENT_REQUIRE_OIDN is set: {e}");
+            eprintln!("skipping {test}: {e}");
+            false
+        }
+    }
+}
+
 /// A file under tests/assets (see its INDEX.md).
 pub fn asset(rel: impl AsRef<Path>) -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/assets").join(rel)

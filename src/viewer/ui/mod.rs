@@ -162,7 +162,7 @@ fn controls(ui: &mut Ui, state: &mut ViewerState, ui_state: &mut UiState) {
     egui::CollapsingHeader::new("Display").default_open(true).show(ui, |ui| {
         tools::display(ui, state, ui_state);
         let denoise = egui::Checkbox::new(&mut state.denoiser.enabled, "denoise (Intel Open Image Denoise)");
-        ui.add_enabled(crate::film::denoise::AVAILABLE, denoise)
+        ui.add_enabled(crate::film::denoise::available().is_ok(), denoise)
             .on_hover_text("shows the denoised image of the latest snapshot; the accumulated image is untouched");
         ui.label(state.denoiser.status());
         ui.checkbox(&mut state.fixed_size, "fixed resolution");
