@@ -45,8 +45,18 @@ fn independent_blocks(scene: &Arc<Scene>, camera: Camera, settings: Settings, k:
         .collect()
 }
 
+/// The bidirectional estimators count scattering in media toward `max_depth`: so does the
+/// path tracer here (`max_volume_depth` off), so that both cut the same paths.
 fn settings(integrator: Integrator, spp: u32, max_depth: u32) -> Settings {
-    Settings { width: SIZE, height: SIZE, integrator, target_spp: Some(spp), max_depth, ..Settings::default() }
+    Settings {
+        width: SIZE,
+        height: SIZE,
+        integrator,
+        target_spp: Some(spp),
+        max_depth,
+        max_volume_depth: None,
+        ..Settings::default()
+    }
 }
 
 /// BDPT's blocks agree with the path tracer's, at family-wise significance 1e-3.

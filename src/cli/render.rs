@@ -192,6 +192,12 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     }
     let names: Vec<String> = written.iter().map(|p| p.display().to_string()).collect();
     println!("{}; wrote {}", snap.summary(&scene.name), names.join(", "));
+    if let Some(e) = snap.relative_error() {
+        eprintln!(
+            "estimated noise: {:.1}% (mean relative standard error of pixel luminance, before denoising)",
+            100.0 * e
+        );
+    }
     if let Some(t) = settings.noise_threshold {
         let (low, high) = (snap.pixel_spp.iter().min(), snap.pixel_spp.iter().max());
         println!(

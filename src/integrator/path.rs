@@ -6,8 +6,10 @@
 //! With `MEDIA` it is the volumetric path tracer (pbrt-v4's VolPathIntegrator): inside a
 //! scattering volume a free flight is sampled on every segment (`media::flight`); where light
 //! scatters, a light is sampled with the phase function and MIS, and the phase function
-//! gives the next direction. A scattering event counts as a bounce toward `max_depth` and
-//! meets Russian roulette like a surface vertex.
+//! gives the next direction. Scattering events in media are counted apart from surface
+//! bounces, toward `max_volume_depth` (Cycles' volume bounces): a subsurface random walk
+//! takes hundreds of them, a surface path a few bounces. Off, they count toward `max_depth`
+//! (pbrt-v4's convention). Both kinds count toward the start of Russian roulette.
 //!
 //! The loop's phases: a medium along the segment, escape to the environment, the surface
 //! (`vertex::arrive`: the light it emits, then a vertex, passing straight through, or the
@@ -58,13 +60,14 @@ pub fn radiance<const MEDIA: bool>(
     // The product of eta^2 over the refractions (pbrt-v4's etaScale), for roulette.
     let mut eta_scale = 1.0f32;
     let mut bounces = Bounces { depth: 0, travelled: 0.0, last: None };
-    // Surfaces crossed without a bounce.
+    // Surfaces crossed without a bounce; scattering events in media.
     let mut crossings = 0u32;
+    let mut volume_events = 0u32;
     let sampling = Sampling::new(settings.importance_sampling);
     let sample_lights = settings.light_sampling != LightSampling::Off && !scene.light_sampler.is_empty();
     loop {
         out.rays += 1;
-        let hit = scene.intersect(&ray, settings.watertight, bounces.depth == 0);
+        let hit = scene.intersect(&ray, settings.watertight, bounces.last.is_none());
 
         // A scattering medium: where it scatters the path first, if before the surface.
         if MEDIA && let Some(volume) = media.volume(&scene.materials).filter(|v| v.scatters()) {
@@ -75,7 +78,8 @@ pub fn radiance<const MEDIA: bool>(
                 Flight::Scatter { t, weight } => {
                     throughput *= weight;
                     aov.medium(volume.albedo, -ray.d / length);
-                    if bounces.depth == settings.max_depth {
+                    let apart = settings.max_volume_depth;
+                    if apart.map_or(bounces.depth, |_| volume_events) == apart.unwrap_or(settings.max_depth) {
                         break;
                     }
                     let (wo, p, phase) = (-ray.d / length, ray.o + ray.d * (t / length), volume.phase());
@@ -84,9 +88,13 @@ pub fn radiance<const MEDIA: bool>(
                     }
                     let next = phase.sample(wo, sampler.next_2d());
                     let last = Some(Scattered { pdf: next.pdf, specular: false });
-                    bounces = Bounces { depth: bounces.depth + 1, travelled: 0.0, last };
+                    bounces = Bounces { travelled: 0.0, last, ..bounces };
+                    match apart {
+                        Some(_) => volume_events += 1,
+                        None => bounces.depth += 1,
+                    }
                     ray = Ray { o: p, d: next.wi, tmax: f32::INFINITY };
-                    if !roulette(settings, bounces.depth, &mut throughput, eta_scale, sampler) {
+                    if !roulette(settings, bounces.depth + volume_events, &mut throughput, eta_scale, sampler) {
                         break;
                     }
                     continue;
@@ -156,7 +164,7 @@ pub fn radiance<const MEDIA: bool>(
         }
         let last = Some(Scattered { pdf: bs.pdf, specular: bs.is_specular() });
         bounces = Bounces { depth: bounces.depth + 1, travelled: 0.0, last };
-        if !roulette(settings, bounces.depth, &mut throughput, eta_scale, sampler) {
+        if !roulette(settings, bounces.depth + volume_events, &mut throughput, eta_scale, sampler) {
             break;
         }
     }

@@ -90,6 +90,11 @@ fn unidirectional(s: &Settings) -> bool {
     !s.integrator.is_bidirectional()
 }
 
+/// Whether paths are traced by the path tracer (which alone counts volume bounces apart).
+fn path_tracing(s: &Settings) -> bool {
+    s.integrator == Integrator::Path
+}
+
 fn distribution(s: &Settings) -> bool {
     s.integrator == Integrator::Distribution
 }
@@ -125,8 +130,10 @@ crate::params! {
         light_sampling: LightSampling = LightSampling::Mis, ["lights", "light sampling", Estimator, Domain::Choice(LightSampling::CHOICES), unidirectional],
         /// Sequence of the sample numbers: independent, or Owen-scrambled Sobol.
         sampler: SamplerKind = SamplerKind::Sobol, ["sampler", "sampler", Estimator, Domain::Choice(SamplerKind::CHOICES), always],
-        /// Maximum bounces, as pbrt-v4's maxdepth: 0 emitters only, 1 direct light.
+        /// Maximum surface bounces, as pbrt-v4's maxdepth: 0 emitters only, 1 direct light (bidirectional estimators count scattering in media here too).
         max_depth: u32 = 7, ["max-depth", "max depth", Estimator, int(0, u32::MAX as u64), always],
+        /// Maximum scattering events in media per path, apart from surface bounces (Cycles' volume bounces): subsurface random walks take hundreds (off: they count toward max depth, as in pbrt-v4 and the bidirectional estimators).
+        max_volume_depth: Option<u32> = Some(1024), ["max-volume-depth", "max volume bounces", Estimator, Domain::Int { min: 0, max: u32::MAX as u64, optional: true }, path_tracing],
         /// Bounce from which Russian roulette may end paths (4: the least error at equal time on the Cornell box).
         rr_depth: u32 = 4, ["rr-depth", "roulette from", Estimator, int(0, u32::MAX as u64), always],
         /// How camera rays sample the pixel area.

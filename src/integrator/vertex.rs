@@ -109,12 +109,12 @@ impl<'a> Vertex<'a> {
     }
 }
 
-/// Where a path stands when its ray meets a surface: the bounces it made (`depth`), the
+/// Where a path stands when its ray meets a surface: the surface bounces it made (`depth`), the
 /// distance its ray has travelled since the last of them (`travelled`, which null surfaces
 /// crossed on the way add to) and how that bounce sampled the ray (`last`).
 #[derive(Clone, Copy)]
 pub struct Bounces {
-    /// Scattering events so far.
+    /// Surface scattering events so far (the path tracer counts those in media apart).
     pub depth: u32,
     /// Distance from the last scattering vertex to the ray's origin.
     pub travelled: f32,
