@@ -9,6 +9,7 @@ use lucent::integrator::{LightSampling, Settings};
 use lucent::loader::builtin;
 use lucent::scene::Scene;
 use lucent::scene::environment::{BUILT_IN, EnvSettings, Environment};
+use lucent::render::Snapshot;
 use lucent::viewer::state::{ImageView, ViewerState};
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -27,6 +28,75 @@ fn wait_for_load(state: &mut ViewerState) {
         assert!(start.elapsed() < Duration::from_secs(60), "loading never finished");
         std::thread::sleep(Duration::from_millis(10));
     }
+}
+
+/// The next image of the current job at full resolution (after `seen`), letting a preview
+/// sharpen to it first as the window does.
+fn next_full_image(state: &mut ViewerState, seen: Option<&Arc<Snapshot>>) -> Arc<Snapshot> {
+    let start = Instant::now();
+    loop {
+        assert!(start.elapsed() < Duration::from_secs(60), "no full-resolution image");
+        state.sync();
+        if let Some(snap) = state.wait_for_update(seen, Duration::from_millis(100)) {
+            let full = state.effective_settings();
+            if snap.generation == state.generation() && !state.previewing() && snap.width == full.width {
+                return snap;
+            }
+            state.snapshot();
+        }
+    }
+}
+
+/// Records full-resolution images of the current job until its curve has two points.
+fn two_points(state: &mut ViewerState) {
+    let mut seen: Option<Arc<Snapshot>> = None;
+    loop {
+        let snap = next_full_image(state, seen.as_ref());
+        state.record_convergence(&snap);
+        let same_job = seen.as_ref().is_some_and(|s| s.generation == snap.generation);
+        if same_job && state.convergence.current.as_ref().is_some_and(|c| c.points.len() >= 2) {
+            return;
+        }
+        seen = Some(snap);
+    }
+}
+
+#[test]
+fn another_scene_drops_the_last_save_message_and_a_tuned_file_saves_over_itself() {
+    let mut state = viewer();
+    let dir = common::scratch("viewer-tuned");
+    state.gltf_path = dir.join("cornell-box.tuned.gltf").display().to_string();
+    state.gltf_saved = Some(state.save_gltf());
+    assert!(matches!(&state.gltf_saved, Some(Ok(p)) if p.exists()), "{:?}", state.gltf_saved);
+    let tuned = dir.join("Box.tuned.glb");
+    std::fs::copy(common::asset("Box/glTF-Binary/Box.glb"), &tuned).unwrap();
+    state.open(tuned.clone());
+    wait_for_load(&mut state);
+    assert!(state.error.is_none() && state.scene.name != "cornell-box", "{:?}", state.error);
+    assert!(state.gltf_saved.is_none(), "the message about the Cornell box is gone with it");
+    assert_eq!(state.gltf_path, tuned.display().to_string(), "not Box.tuned.tuned.glb");
+}
+
+#[test]
+fn the_convergence_plot_keeps_a_curve_per_estimator_not_one_per_camera_move_or_edit() {
+    let mut state = viewer();
+    two_points(&mut state);
+    state.settings.light_sampling = LightSampling::Explicit;
+    two_points(&mut state);
+    let labels = |state: &ViewerState| -> Vec<String> {
+        let log = &state.convergence;
+        log.previous.iter().chain(&log.current).map(|c| format!("#{} {}", c.number, c.label)).collect()
+    };
+    assert_eq!(labels(&state), ["#1 default estimator", "#2 lights explicit"], "another estimator is compared");
+    state.camera.orbit(glam::Vec2::new(10.0, 0.0), 48.0);
+    two_points(&mut state);
+    assert_eq!(labels(&state), ["#1 lights explicit"], "the camera moved: another image, the plot starts over");
+    state.edit(|materials, _| materials[0].base_color = glam::Vec3::new(0.2, 0.4, 0.6));
+    two_points(&mut state);
+    assert_eq!(labels(&state), ["#1 lights explicit"], "an edit is another image too");
+    state.settings.seed = 7;
+    two_points(&mut state);
+    assert_eq!(labels(&state), ["#1 lights explicit"], "another seed replaces the curve of the same estimator");
 }
 
 #[test]

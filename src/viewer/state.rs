@@ -30,7 +30,7 @@ use glam::{UVec2, Vec2, Vec3};
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 use std::sync::mpsc::{Receiver, TryRecvError};
-use std::sync::{Arc, atomic::AtomicBool, atomic::Ordering};
+use std::sync::{Arc, Weak, atomic::AtomicBool, atomic::Ordering};
 use std::time::{Duration, Instant};
 
 /// Whether jobs ask for the denoiser's AOVs: whenever it is built in, so that toggling it
@@ -121,12 +121,18 @@ pub struct ViewerState {
     pub show_selection: bool,
     /// Where "Save glTF" writes the scene with its edits.
     pub gltf_path: String,
+    /// The last "Save glTF": where it went, or why it failed (shown under the button until
+    /// another scene, or the same file in another variant, opens).
+    pub gltf_saved: Option<Result<PathBuf, String>>,
     /// The last error, shown until dismissed.
     pub error: Option<String>,
     /// Why the current settings cannot start (shown beside them until they can).
     pub settings_error: Option<String>,
     /// Estimated error against time of this job and the previous ones.
     pub convergence: ConvergenceLog,
+    /// The image the convergence log measures (scene with its edits, camera, size) and its
+    /// number, bumped when it changes.
+    convergence_view: (Option<(Weak<Scene>, Camera, UVec2)>, u64),
     /// What the image area shows: the image, or a false-colour view.
     pub view: ImageView,
     /// The Denoise toggle and its worker.
@@ -213,9 +219,11 @@ impl ViewerState {
             selected: None,
             show_selection: true,
             gltf_path: save::default_path(source.as_deref()).display().to_string(),
+            gltf_saved: None,
             error: None,
             settings_error: None,
             convergence: ConvergenceLog::default(),
+            convergence_view: (None, 0),
             view: ImageView::Image,
             denoiser: Denoiser::default(),
             message: None,
@@ -415,6 +423,7 @@ impl ViewerState {
                 let scene = Arc::new(scene);
                 self.variant = variant;
                 self.original = (scene.materials.clone(), scene.lights.clone());
+                self.gltf_saved = None;
                 if same_file {
                     self.scene = scene;
                     self.selected = None;
@@ -555,12 +564,23 @@ impl ViewerState {
     }
 
     /// Logs a shown image's estimated error, if it is a full-resolution one (previews
-    /// during camera motion are not part of the job's convergence).
+    /// during camera motion are not part of the job's convergence). Curves are compared
+    /// on one image: another scene, edit, camera or size starts the log over.
     pub fn record_convergence(&mut self, snap: &Snapshot) {
         let full = self.effective_settings_full();
-        if snap.width == full.width && snap.height == full.height {
-            self.convergence.record(snap, &convergence::label(&self.sent.settings));
+        if snap.width != full.width || snap.height != full.height {
+            return;
         }
+        let size = UVec2::new(snap.width, snap.height);
+        let (seen, number) = &mut self.convergence_view;
+        let same = seen.as_ref().is_some_and(|(scene, camera, s)| {
+            std::ptr::eq(scene.as_ptr(), Arc::as_ptr(&self.sent.scene)) && *camera == self.sent.camera && *s == size
+        });
+        if !same {
+            *seen = Some((Arc::downgrade(&self.sent.scene), self.sent.camera, size));
+            *number += 1;
+        }
+        self.convergence.record(snap, &convergence::label(&self.sent.settings), *number);
     }
 
     /// Hands the latest snapshot to the denoiser if it is due, and takes its result; true
