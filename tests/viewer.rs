@@ -7,9 +7,9 @@ use lucent::film::false_colour;
 use lucent::film::tonemap::Display;
 use lucent::integrator::{LightSampling, Settings};
 use lucent::loader::builtin;
+use lucent::render::Snapshot;
 use lucent::scene::Scene;
 use lucent::scene::environment::{BUILT_IN, EnvSettings, Environment};
-use lucent::render::Snapshot;
 use lucent::viewer::state::{ImageView, ViewerState};
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -97,6 +97,66 @@ fn the_convergence_plot_keeps_a_curve_per_estimator_not_one_per_camera_move_or_e
     state.settings.seed = 7;
     two_points(&mut state);
     assert_eq!(labels(&state), ["#1 lights explicit"], "another seed replaces the curve of the same estimator");
+}
+
+#[test]
+fn an_opened_scene_shows_its_coarsest_preview_first_and_sharpens() {
+    let mut state = viewer();
+    state.open(common::asset("Box/glTF-Binary/Box.glb"));
+    wait_for_load(&mut state);
+    assert!(state.sync());
+    assert_eq!(state.effective_settings().width, 6, "1/8 of 48: the first image comes at once");
+    let full = next_full_image(&mut state, None);
+    assert_eq!((full.width, full.height), (48, 48));
+}
+
+#[test]
+fn a_file_camera_with_an_aspect_ratio_is_letterboxed_whole() {
+    use glam::UVec2;
+    use lucent::viewer::state::render_size;
+    assert_eq!(render_size(UVec2::new(599, 800), Some(1.5)), UVec2::new(599, 399), "landscape in portrait");
+    assert_eq!(render_size(UVec2::new(1600, 800), Some(1.5)), UVec2::new(1200, 800), "pillarboxed");
+    assert_eq!(render_size(UVec2::new(599, 800), None), UVec2::new(599, 800), "no frame: the whole area");
+    assert_eq!(render_size(UVec2::new(0, 5), Some(1e6)), UVec2::new(1, 1), "never empty");
+    // prism.gltf's camera is made for 3:2: in the viewer's portrait area it keeps 3:2,
+    // through a move too, and the view of a scene without cameras fills the area.
+    let desc = lucent::loader::gltf::load(Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/docs/scenes/prism.gltf")));
+    let scene = Scene::build(desc.unwrap());
+    assert_eq!(scene.cameras[0].1.aspect, Some(1.5));
+    let settings = Settings { width: 64, height: 64, ..Settings::default() };
+    let mut state = ViewerState::new(scene, None, settings, false, Display::default(), None, Some(1)).unwrap();
+    state.viewport = UVec2::new(599, 800);
+    let s = state.effective_settings();
+    assert_eq!((s.width, s.height), (599, 399));
+    state.camera.orbit(glam::Vec2::new(10.0, 0.0), 399.0);
+    assert_eq!(state.aspect(), 599.0 / 399.0, "the frame is kept through a move");
+    let settings = Settings { width: 64, height: 64, ..Settings::default() };
+    let scene = Scene::build(lucent::loader::gltf::load(&common::asset("Box/glTF-Binary/Box.glb")).unwrap());
+    assert!(scene.cameras.is_empty());
+    let mut state = ViewerState::new(scene, None, settings, false, Display::default(), None, Some(1)).unwrap();
+    state.viewport = UVec2::new(599, 800);
+    let s = state.effective_settings();
+    assert_eq!((s.width, s.height), (599, 800), "without a file camera, the whole area");
+}
+
+#[test]
+fn an_edit_under_the_pinned_half_moves_the_divider_onto_the_selection() {
+    let mut state = viewer();
+    state.wait_for_update(None, Duration::from_secs(30)).expect("an image");
+    let red = state.pick(glam::Vec2::new(0.05, 0.5)).unwrap();
+    state.selected = Some(red);
+    let _ = state.pin_image();
+    let split = state.compare.view.split;
+    assert!(split < 0.25, "the divider at {split} leaves the red wall on the left wall in the pinned half");
+    // Another selection, edited: the divider follows it, until the user moves it.
+    let green = state.pick(glam::Vec2::new(0.95, 0.5)).unwrap();
+    state.selected = Some(green);
+    state.edit(|materials, _| materials[green as usize].base_color = glam::Vec3::new(0.1, 0.2, 0.9));
+    assert!(state.compare.view.split > 0.75, "{}", state.compare.view.split);
+    state.compare.view.split = 0.4;
+    state.compare.divider_moved = true;
+    state.edit(|materials, _| materials[green as usize].base_color = glam::Vec3::new(0.9, 0.2, 0.1));
+    assert_eq!(state.compare.view.split, 0.4, "the user's divider stays");
 }
 
 #[test]
