@@ -23,8 +23,8 @@ use std::time::Instant;
 pub(super) use widgets::param_widget;
 use widgets::{colour_and_amount, legend};
 
-/// What the firefly clamp trades, beside it.
-const CLAMP_TRADE: &str = "biased: cuts bright paths (caustics through glass) for less noise";
+/// What the firefly clamp trades, in one line beside it (the hover text says more).
+const CLAMP_TRADE: &str = "bias for less noise: dims glass caustics";
 
 /// UI-only state that does not affect the image.
 pub struct UiState {
@@ -211,7 +211,9 @@ fn estimator(ui: &mut Ui, state: &mut ViewerState) {
     for p in Settings::table().iter().filter(|p| p.group == Group::Estimator) {
         param_widget(ui, p, s);
         if p.name == "clamp" {
-            ui.weak(CLAMP_TRADE);
+            ui.label(egui::RichText::new(CLAMP_TRADE).small().weak()).on_hover_text(
+                "the clamp removes the energy of bright paths (caustics through glass, small bright lights)                  above its value: less noise, a darker, biased image",
+            );
         }
     }
     if s.integrator == Integrator::Path && state.scene.delta_lights_behind_glass() {
