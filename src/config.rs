@@ -85,9 +85,13 @@ impl ViewFile {
         crate::params::validate(crate::film::tonemap::DISPLAY, &view.display).map_err(|e| fail(&e))?;
         view.environment.validate().map_err(|e| fail(&e))?;
         if let Some(c) = view.camera
-            && !(c.position.is_finite() && c.rotation.is_finite() && c.yfov > 0.0 && c.yfov < std::f32::consts::PI)
+            && !(c.position.is_finite()
+                && c.rotation.is_finite()
+                && c.yfov > 0.0
+                && c.yfov < std::f32::consts::PI
+                && c.aspect.is_none_or(|a| a.is_finite() && a > 0.0))
         {
-            return Err(fail(&"the camera needs a finite position and rotation and 0 < yfov < pi"));
+            return Err(fail(&"the camera needs a finite position and rotation, 0 < yfov < pi and a positive aspect"));
         }
         // Each edit's values by its table (kind and range); which material or light it
         // names is checked against the scene when the edits are applied.

@@ -7,6 +7,7 @@ use lucent::film::false_colour;
 use lucent::film::tonemap::Display;
 use lucent::integrator::{LightSampling, Settings};
 use lucent::loader::builtin;
+use lucent::render::Snapshot;
 use lucent::scene::Scene;
 use lucent::scene::environment::{BUILT_IN, EnvSettings, Environment};
 use lucent::viewer::state::{ImageView, ViewerState};
@@ -27,6 +28,135 @@ fn wait_for_load(state: &mut ViewerState) {
         assert!(start.elapsed() < Duration::from_secs(60), "loading never finished");
         std::thread::sleep(Duration::from_millis(10));
     }
+}
+
+/// The next image of the current job at full resolution (after `seen`), letting a preview
+/// sharpen to it first as the window does.
+fn next_full_image(state: &mut ViewerState, seen: Option<&Arc<Snapshot>>) -> Arc<Snapshot> {
+    let start = Instant::now();
+    loop {
+        assert!(start.elapsed() < Duration::from_secs(60), "no full-resolution image");
+        state.sync();
+        if let Some(snap) = state.wait_for_update(seen, Duration::from_millis(100)) {
+            let full = state.effective_settings();
+            if snap.generation == state.generation() && !state.previewing() && snap.width == full.width {
+                return snap;
+            }
+            state.snapshot();
+        }
+    }
+}
+
+/// Records full-resolution images of the current job until its curve has two points.
+fn two_points(state: &mut ViewerState) {
+    let mut seen: Option<Arc<Snapshot>> = None;
+    loop {
+        let snap = next_full_image(state, seen.as_ref());
+        state.record_convergence(&snap);
+        let same_job = seen.as_ref().is_some_and(|s| s.generation == snap.generation);
+        if same_job && state.convergence.current.as_ref().is_some_and(|c| c.points.len() >= 2) {
+            return;
+        }
+        seen = Some(snap);
+    }
+}
+
+#[test]
+fn another_scene_drops_the_last_save_message_and_a_tuned_file_saves_over_itself() {
+    let mut state = viewer();
+    let dir = common::scratch("viewer-tuned");
+    state.gltf_path = dir.join("cornell-box.tuned.gltf").display().to_string();
+    state.gltf_saved = Some(state.save_gltf());
+    assert!(matches!(&state.gltf_saved, Some(Ok(p)) if p.exists()), "{:?}", state.gltf_saved);
+    let tuned = dir.join("Box.tuned.glb");
+    std::fs::copy(common::asset("Box/glTF-Binary/Box.glb"), &tuned).unwrap();
+    state.open(tuned.clone());
+    wait_for_load(&mut state);
+    assert!(state.error.is_none() && state.scene.name != "cornell-box", "{:?}", state.error);
+    assert!(state.gltf_saved.is_none(), "the message about the Cornell box is gone with it");
+    assert_eq!(state.gltf_path, tuned.display().to_string(), "not Box.tuned.tuned.glb");
+}
+
+#[test]
+fn the_convergence_plot_keeps_a_curve_per_estimator_not_one_per_camera_move_or_edit() {
+    let mut state = viewer();
+    two_points(&mut state);
+    state.settings.light_sampling = LightSampling::Explicit;
+    two_points(&mut state);
+    let labels = |state: &ViewerState| -> Vec<String> {
+        let log = &state.convergence;
+        log.previous.iter().chain(&log.current).map(|c| format!("#{} {}", c.number, c.label)).collect()
+    };
+    assert_eq!(labels(&state), ["#1 default estimator", "#2 lights explicit"], "another estimator is compared");
+    state.camera.orbit(glam::Vec2::new(10.0, 0.0), 48.0);
+    two_points(&mut state);
+    assert_eq!(labels(&state), ["#1 lights explicit"], "the camera moved: another image, the plot starts over");
+    state.edit(|materials, _| materials[0].base_color = glam::Vec3::new(0.2, 0.4, 0.6));
+    two_points(&mut state);
+    assert_eq!(labels(&state), ["#1 lights explicit"], "an edit is another image too");
+    state.settings.seed = 7;
+    two_points(&mut state);
+    assert_eq!(labels(&state), ["#1 lights explicit"], "another seed replaces the curve of the same estimator");
+}
+
+#[test]
+fn an_opened_scene_shows_its_coarsest_preview_first_and_sharpens() {
+    let mut state = viewer();
+    state.open(common::asset("Box/glTF-Binary/Box.glb"));
+    wait_for_load(&mut state);
+    assert!(state.sync());
+    assert_eq!(state.effective_settings().width, 6, "1/8 of 48: the first image comes at once");
+    let full = next_full_image(&mut state, None);
+    assert_eq!((full.width, full.height), (48, 48));
+}
+
+#[test]
+fn a_file_camera_with_an_aspect_ratio_is_letterboxed_whole() {
+    use glam::UVec2;
+    use lucent::viewer::state::render_size;
+    assert_eq!(render_size(UVec2::new(599, 800), Some(1.5)), UVec2::new(599, 399), "landscape in portrait");
+    assert_eq!(render_size(UVec2::new(1600, 800), Some(1.5)), UVec2::new(1200, 800), "pillarboxed");
+    assert_eq!(render_size(UVec2::new(599, 800), None), UVec2::new(599, 800), "no frame: the whole area");
+    assert_eq!(render_size(UVec2::new(0, 5), Some(1e6)), UVec2::new(1, 1), "never empty");
+    // prism.gltf's camera is made for 3:2: in the viewer's portrait area it keeps 3:2,
+    // through a move too, and the view of a scene without cameras fills the area.
+    let desc = lucent::loader::gltf::load(Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/docs/scenes/prism.gltf")));
+    let scene = Scene::build(desc.unwrap());
+    assert_eq!(scene.cameras[0].1.aspect, Some(1.5));
+    let settings = Settings { width: 64, height: 64, ..Settings::default() };
+    let mut state = ViewerState::new(scene, None, settings, false, Display::default(), None, Some(1)).unwrap();
+    state.viewport = UVec2::new(599, 800);
+    let s = state.effective_settings();
+    assert_eq!((s.width, s.height), (599, 399));
+    state.camera.orbit(glam::Vec2::new(10.0, 0.0), 399.0);
+    assert_eq!(state.aspect(), 599.0 / 399.0, "the frame is kept through a move");
+    let settings = Settings { width: 64, height: 64, ..Settings::default() };
+    let scene = Scene::build(lucent::loader::gltf::load(&common::asset("Box/glTF-Binary/Box.glb")).unwrap());
+    assert!(scene.cameras.is_empty());
+    let mut state = ViewerState::new(scene, None, settings, false, Display::default(), None, Some(1)).unwrap();
+    state.viewport = UVec2::new(599, 800);
+    let s = state.effective_settings();
+    assert_eq!((s.width, s.height), (599, 800), "without a file camera, the whole area");
+}
+
+#[test]
+fn an_edit_under_the_pinned_half_moves_the_divider_onto_the_selection() {
+    let mut state = viewer();
+    state.wait_for_update(None, Duration::from_secs(30)).expect("an image");
+    let red = state.pick(glam::Vec2::new(0.05, 0.5)).unwrap();
+    state.selected = Some(red);
+    let _ = state.pin_image();
+    let split = state.compare.view.split;
+    assert!(split < 0.25, "the divider at {split} leaves the red wall on the left wall in the pinned half");
+    // Another selection, edited: the divider follows it, until the user moves it.
+    let green = state.pick(glam::Vec2::new(0.95, 0.5)).unwrap();
+    state.selected = Some(green);
+    state.edit(|materials, _| materials[green as usize].base_color = glam::Vec3::new(0.1, 0.2, 0.9));
+    assert!(state.compare.view.split > 0.75, "{}", state.compare.view.split);
+    state.compare.view.split = 0.4;
+    state.compare.divider_moved = true;
+    state.edit(|materials, _| materials[green as usize].base_color = glam::Vec3::new(0.9, 0.2, 0.1));
+    assert_eq!(state.compare.view.split, 0.4, "the user's divider stays");
 }
 
 #[test]

@@ -661,7 +661,12 @@ fn convert(doc: &Document, buffers: &[buffer::Data], images: Vec<Image>, name: S
             match camera.projection() {
                 gltf::camera::Projection::Perspective(p) => {
                     let (_, rotation, position) = world.to_scale_rotation_translation();
-                    let cam = Camera { position: Vec3::ZERO, rotation: rotation.as_quat().normalize(), yfov: p.yfov() };
+                    let cam = Camera {
+                        position: Vec3::ZERO,
+                        rotation: rotation.as_quat().normalize(),
+                        yfov: p.yfov(),
+                        aspect: p.aspect_ratio().filter(|a| a.is_finite() && *a > 0.0),
+                    };
                     cameras.push((camera.name().unwrap_or("camera").into(), cam, position));
                 }
                 gltf::camera::Projection::Orthographic(_) => {

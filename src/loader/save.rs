@@ -471,11 +471,13 @@ fn relative(from: &Path, target: &Path) -> Option<String> {
     Some(parts.join("/"))
 }
 
-/// Where the viewer suggests saving `source`: beside it, `NAME.tuned.gltf` (or `.glb`); for
-/// the built-in scene, `cornell-box.tuned.gltf` in the current folder.
+/// Where the viewer suggests saving `source`: beside it, `NAME.tuned.gltf` (or `.glb`), and
+/// a tuned file over itself (`NAME.tuned.gltf` again, not `NAME.tuned.tuned.gltf`); for the
+/// built-in scene, `cornell-box.tuned.gltf` in the current folder.
 pub fn default_path(source: Option<&Path>) -> PathBuf {
     let Some(source) = source else { return PathBuf::from("cornell-box.tuned.gltf") };
     let stem = source.file_stem().map_or_else(|| "scene".into(), |s| s.to_string_lossy().into_owned());
+    let stem = stem.strip_suffix(".tuned").unwrap_or(&stem);
     let binary = std::fs::read(source).is_ok_and(|b| b.starts_with(b"glTF"))
         || source.extension().is_some_and(|e| e.eq_ignore_ascii_case("glb"));
     source.with_file_name(format!("{stem}.tuned.{}", if binary { "glb" } else { "gltf" }))

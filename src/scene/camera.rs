@@ -12,6 +12,10 @@ pub struct Camera {
     pub rotation: Quat,
     /// Vertical field of view in radians.
     pub yfov: f32,
+    /// Width over height of the frame the camera was made for (glTF's `aspectRatio`), which
+    /// the viewer keeps by letterboxing; None: the frame follows the image.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub aspect: Option<f32>,
 }
 
 impl Camera {
@@ -22,7 +26,7 @@ impl Camera {
         let right = forward.cross(up).normalize();
         let up = right.cross(forward);
         let rotation = Quat::from_mat3(&glam::Mat3::from_cols(right, up, -forward)).normalize();
-        Self { position: eye, rotation, yfov }
+        Self { position: eye, rotation, yfov, aspect: None }
     }
 
     /// A camera that frames the axis-aligned box [min, max] from its +z side, 20 degrees above

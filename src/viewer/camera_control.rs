@@ -20,6 +20,8 @@ pub struct CameraController {
     pub distance: f32,
     /// Vertical field of view in radians.
     pub yfov: f32,
+    /// The frame's width over height, kept through moves (see `Camera::aspect`).
+    pub aspect: Option<f32>,
     /// The camera this controller was made from, used exactly (roll included) until the
     /// first move, so that an untouched view renders the file's camera bit for bit.
     exact: Option<Camera>,
@@ -32,7 +34,15 @@ impl CameraController {
         let pitch = f.y.clamp(-1.0, 1.0).asin().clamp(-MAX_PITCH, MAX_PITCH);
         let yaw = f.x.atan2(-f.z);
         let distance = distance.max(f32::MIN_POSITIVE);
-        Self { target: camera.position + f * distance, yaw, pitch, distance, yfov: camera.yfov, exact: Some(*camera) }
+        Self {
+            target: camera.position + f * distance,
+            yaw,
+            pitch,
+            distance,
+            yfov: camera.yfov,
+            aspect: camera.aspect,
+            exact: Some(*camera),
+        }
     }
 
     /// A controller framing the box [min, max] for an image of aspect `aspect`.
@@ -54,10 +64,10 @@ impl CameraController {
     /// The camera this controller describes.
     pub fn camera(&self) -> Camera {
         if let Some(c) = self.exact {
-            return Camera { yfov: self.yfov, ..c };
+            return Camera { yfov: self.yfov, aspect: self.aspect, ..c };
         }
         let rotation = Quat::from_rotation_y(-self.yaw) * Quat::from_rotation_x(self.pitch);
-        Camera { position: self.position(), rotation, yfov: self.yfov }
+        Camera { position: self.position(), rotation, yfov: self.yfov, aspect: self.aspect }
     }
 
     fn right_up(&self) -> (Vec3, Vec3) {
@@ -114,6 +124,7 @@ mod tests {
             pitch: -0.3,
             distance: 5.0,
             yfov: 0.8,
+            aspect: None,
             exact: None,
         }
     }
@@ -141,6 +152,7 @@ mod tests {
             position: Vec3::new(0.278, 0.273, -0.8),
             rotation: Quat::from_rotation_y(std::f32::consts::PI) * Quat::from_rotation_z(0.2),
             yfov: 0.69,
+            aspect: Some(1.5),
         };
         let mut c = CameraController::from_camera(&rolled, 1.0);
         assert_eq!(c.camera(), rolled);

@@ -231,6 +231,9 @@ pub struct Compare {
     pub view: CompareView,
     /// Show the pinned image whatever the mode (while Space is held).
     pub flip: bool,
+    /// The user moved the divider since the image was pinned; until then it follows the
+    /// selected material (`ViewerState::place_divider`).
+    pub divider_moved: bool,
     /// Where pins are kept (None: in memory only).
     pub store: Option<PinStore>,
     /// The file the pin is in, if it is on disk.
@@ -248,6 +251,7 @@ impl Compare {
         self.pin = pin;
         self.file = file;
         self.serial += 1;
+        self.divider_moved = false;
     }
 
     /// The mode in effect: the pinned image while flipped, the live one without a pin.

@@ -1,6 +1,6 @@
 //! The live convergence log: the estimated error of the current view against render time,
-//! one curve per job (earlier jobs kept for comparison) and the time still needed to reach
-//! a target error.
+//! one curve per estimator settings on the same image, and the time still needed to reach a
+//! target error.
 
 use crate::integrator::Settings;
 use crate::params::Group;
@@ -13,7 +13,8 @@ const KEPT: usize = 4;
 /// One job's estimated relative error against time.
 #[derive(Clone, Debug)]
 pub struct Curve {
-    /// Its number, counted from 1 since the scene was opened (never renumbered).
+    /// Its number, counted from 1 since the image last changed (kept by the curves that
+    /// replace it).
     pub number: u32,
     /// What rendered it (estimator and sampler).
     pub label: String,
@@ -25,6 +26,8 @@ pub struct Curve {
 #[derive(Default)]
 pub struct ConvergenceLog {
     generation: Option<u64>,
+    /// What the curves render (scene, edits, camera, size), as `record` was told.
+    view: Option<u64>,
     /// Curves started so far.
     started: u32,
     /// The job being rendered.
@@ -34,19 +37,33 @@ pub struct ConvergenceLog {
 }
 
 impl ConvergenceLog {
-    /// Adds a full-resolution image of a job labelled `label`; a new job starts a new
-    /// curve and keeps the finished one (if it has at least two points) for comparison.
-    pub fn record(&mut self, snap: &Snapshot, label: &str) {
+    /// Adds a full-resolution image of a job labelled `label` (its estimator settings)
+    /// rendering image `view`. A new job on the same image keeps the finished curve (if it
+    /// has at least two points) for comparison, one curve per label: the new one replaces
+    /// a curve of its label, taking its number. A new job on another image (a camera move,
+    /// an edit, another size) starts the plot over, since the earlier curves measured
+    /// another image's error.
+    pub fn record(&mut self, snap: &Snapshot, label: &str, view: u64) {
+        if self.view != Some(view) {
+            *self = Self { view: Some(view), ..Self::default() };
+        }
         if self.generation != Some(snap.generation) {
-            if let Some(done) = self.current.take().filter(|c| c.points.len() >= 2) {
+            if let Some(done) = self.current.take().filter(|c| c.points.len() >= 2 || c.label == label) {
                 self.previous.push_back(done);
-                if self.previous.len() > KEPT {
-                    self.previous.pop_front();
+            }
+            let replaced = self.previous.iter().position(|c| c.label == label);
+            let number = match replaced.and_then(|i| self.previous.remove(i)) {
+                Some(old) => old.number,
+                None => {
+                    self.started += 1;
+                    self.started
                 }
+            };
+            if self.previous.len() > KEPT {
+                self.previous.pop_front();
             }
             self.generation = Some(snap.generation);
-            self.started += 1;
-            self.current = Some(Curve { number: self.started, label: label.into(), points: Vec::new() });
+            self.current = Some(Curve { number, label: label.into(), points: Vec::new() });
         }
         let (Some(curve), Some(error)) = (self.current.as_mut(), snap.relative_error()) else { return };
         let t = snap.elapsed.as_secs_f64();
@@ -120,24 +137,45 @@ mod tests {
     fn a_new_job_keeps_the_previous_curve_for_comparison() {
         let mut log = ConvergenceLog::default();
         for (t, e) in [(1.0, 0.1), (4.0, 0.05)] {
-            log.record(&snap(1, t, e), "PT");
+            log.record(&snap(1, t, e), "PT", 0);
         }
-        log.record(&snap(2, 0.5, 0.2), "DRT");
+        log.record(&snap(2, 0.5, 0.2), "DRT", 0);
         assert_eq!(log.previous.len(), 1);
         assert_eq!(log.previous[0].label, "PT");
         assert_eq!(log.previous[0].points.len(), 2);
         assert_eq!(log.current.as_ref().unwrap().label, "DRT");
         for g in 3..10 {
-            log.record(&snap(g, 1.0, 0.1), "x");
-            log.record(&snap(g, 2.0, 0.07), "x");
+            log.record(&snap(g, 1.0, 0.1), &format!("x{g}"), 0);
+            log.record(&snap(g, 2.0, 0.07), &format!("x{g}"), 0);
         }
         assert_eq!(log.previous.len(), KEPT);
     }
 
     #[test]
+    fn a_restart_on_the_same_settings_replaces_their_curve_and_another_image_starts_over() {
+        let mut log = ConvergenceLog::default();
+        log.record(&snap(1, 1.0, 0.1), "PT", 0);
+        log.record(&snap(1, 2.0, 0.07), "PT", 0);
+        log.record(&snap(2, 1.0, 0.1), "BDPT", 0);
+        log.record(&snap(2, 2.0, 0.07), "BDPT", 0);
+        // Back to PT on the same image: its curve is replaced, under its number.
+        log.record(&snap(3, 0.5, 0.2), "PT", 0);
+        let numbered = |c: &Curve| (c.number, c.label.clone());
+        assert_eq!(log.previous.iter().map(numbered).collect::<Vec<_>>(), [(2, "BDPT".to_string())]);
+        assert_eq!(log.current.as_ref().map(numbered), Some((1, "PT".to_string())));
+        // A restart that does not get two points on the plot still keeps its number.
+        log.record(&snap(4, 0.5, 0.2), "PT", 0);
+        assert_eq!(log.current.as_ref().map(numbered), Some((1, "PT".to_string())));
+        // Another image (the camera moved, a material was edited): the plot starts over.
+        log.record(&snap(5, 0.5, 0.2), "PT", 1);
+        assert!(log.previous.is_empty());
+        assert_eq!(log.current.as_ref().map(numbered), Some((1, "PT".to_string())));
+    }
+
+    #[test]
     fn the_time_to_a_target_follows_the_inverse_square_root_law() {
         let mut log = ConvergenceLog::default();
-        log.record(&snap(1, 2.0, 0.04), "PT");
+        log.record(&snap(1, 2.0, 0.04), "PT", 0);
         let rel = log.current.as_ref().unwrap().points[0][1];
         // Halving the error takes four times the time: 3 x 2 s more.
         assert!((log.time_to(rel / 2.0).unwrap() - 6.0).abs() < 1e-9);

@@ -111,6 +111,7 @@ pub fn run(launch: Launch) -> Result<(), String> {
         None => view.camera,
     };
     let mut state = ViewerState::new(scene, path, view.settings, fixed_size, view.display, camera, threads)?;
+    state.sharpen_from_coarsest();
     state.apply_edits(&view)?;
     state.variant = variant;
     state.denoiser.enabled = denoise.unwrap_or_else(|| crate::film::denoise::available().is_ok());

@@ -29,7 +29,7 @@ use glam::{UVec2, Vec2, Vec3};
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 use std::sync::mpsc::{Receiver, TryRecvError};
-use std::sync::{Arc, atomic::AtomicBool, atomic::Ordering};
+use std::sync::{Arc, Weak, atomic::AtomicBool, atomic::Ordering};
 use std::time::{Duration, Instant};
 
 /// Whether jobs ask for the denoiser's AOVs: whenever the library is found, so that
@@ -122,12 +122,18 @@ pub struct ViewerState {
     pub show_selection: bool,
     /// Where "Save glTF" writes the scene with its edits.
     pub gltf_path: String,
+    /// The last "Save glTF": where it went, or why it failed (shown under the button until
+    /// another scene, or the same file in another variant, opens).
+    pub gltf_saved: Option<Result<PathBuf, String>>,
     /// The last error, shown until dismissed.
     pub error: Option<String>,
     /// Why the current settings cannot start (shown beside them until they can).
     pub settings_error: Option<String>,
     /// Estimated error against time of this job and the previous ones.
     pub convergence: ConvergenceLog,
+    /// The image the convergence log measures (scene with its edits, camera, size) and its
+    /// number, bumped when it changes.
+    convergence_view: (Option<(Weak<Scene>, Camera, UVec2)>, u64),
     /// What the image area shows: the image, or a false-colour view.
     pub view: ImageView,
     /// The Denoise toggle and its worker.
@@ -214,9 +220,11 @@ impl ViewerState {
             selected: None,
             show_selection: true,
             gltf_path: save::default_path(source.as_deref()).display().to_string(),
+            gltf_saved: None,
             error: None,
             settings_error: None,
             convergence: ConvergenceLog::default(),
+            convergence_view: (None, 0),
             view: ImageView::Image,
             denoiser: Denoiser::default(),
             message: None,
@@ -243,14 +251,27 @@ impl ViewerState {
         })
     }
 
-    /// The settings at full resolution: the window's size, or the fixed one.
+    /// The settings at full resolution: the fixed size, or the image area's, letterboxed to
+    /// the camera's frame if it has one (`render_size`).
     fn effective_settings_full(&self) -> Settings {
+        self.settings_for(self.camera.aspect)
+    }
+
+    /// The settings at full resolution for a camera whose frame has aspect `frame`.
+    fn settings_for(&self, frame: Option<f32>) -> Settings {
         let mut s = self.settings;
         if !self.fixed_size {
-            s.width = self.viewport.x.clamp(1, 16384);
-            s.height = self.viewport.y.clamp(1, 16384);
+            let size = render_size(self.viewport, frame);
+            (s.width, s.height) = (size.x, size.y);
         }
         s
+    }
+
+    /// Renders the next images from the coarsest preview up, as after a camera move: the
+    /// window opens a scene this way, so that its first image comes within a frame instead
+    /// of after a whole full-resolution pass.
+    pub fn sharpen_from_coarsest(&mut self) {
+        self.divisor = COARSEST;
     }
 
     /// Whether a reduced-resolution preview is rendered (the camera moves, or the view is
@@ -416,13 +437,15 @@ impl ViewerState {
                 let scene = Arc::new(scene);
                 self.variant = variant;
                 self.original = (scene.materials.clone(), scene.lights.clone());
+                self.gltf_saved = None;
                 if same_file {
                     self.scene = scene;
                     self.selected = None;
                     return true;
                 }
-                let aspect = self.aspect();
+                let aspect = self.free_aspect();
                 self.camera = controller_for(&scene, None, aspect);
+                self.divisor = COARSEST;
                 self.fly_speed = 0.25 * scene.radius().max(1e-3);
                 self.message = (!scene.warnings.is_empty()).then(|| scene.warnings.join("; "));
                 if Path::new(&self.screenshot_dir) == default_screenshot_dir(self.source.as_deref()) {
@@ -453,13 +476,52 @@ impl ViewerState {
         s.width as f32 / s.height as f32
     }
 
-    /// Applies an edit to the materials and lights: the BVH is kept, accumulation restarts.
+    /// Aspect ratio of the image of a camera without a frame of its own (the image area's,
+    /// or the fixed size's), for framing the scene.
+    fn free_aspect(&self) -> f32 {
+        let s = self.settings_for(None);
+        s.width as f32 / s.height as f32
+    }
+
+    /// Applies an edit to the materials and lights: the BVH is kept, accumulation restarts,
+    /// and the split's divider moves onto the selection (`place_divider`).
     pub fn edit(&mut self, f: impl FnOnce(&mut Vec<Material>, &mut Vec<PunctualLight>)) {
         let (mut materials, mut lights) = (self.scene.materials.clone(), self.scene.lights.clone());
         f(&mut materials, &mut lights);
         if materials != self.scene.materials || lights != self.scene.lights {
             self.scene = Arc::new(self.scene.with_edits(materials, lights));
+            self.place_divider();
         }
+    }
+
+    /// In the split, until the user moves the divider, puts it through the middle of the
+    /// selected material's columns, so that an edited object shows before (left) and after
+    /// (right) side by side, whichever half of the image it is in.
+    pub fn place_divider(&mut self) {
+        if self.compare.mode() != CompareMode::Split || self.compare.divider_moved {
+            return;
+        }
+        if let Some(u) = self.selected.and_then(|m| self.material_columns(m)) {
+            self.compare.view.split = 0.5 * (u.0 + u.1);
+        }
+    }
+
+    /// The leftmost and rightmost image column ([0, 1]) where material `material` is seen,
+    /// from a grid of 64 x 64 primary rays (None: not seen).
+    fn material_columns(&self, material: u32) -> Option<(f32, f32)> {
+        const GRID: u32 = 64;
+        let s = self.effective_settings();
+        let size = Vec2::new(s.width as f32, s.height as f32);
+        let rays = self.camera.camera().rays(s.width, s.height);
+        let geometry = &self.scene.geometry;
+        (0..GRID * GRID)
+            .into_par_iter()
+            .filter_map(|i| {
+                let uv = (Vec2::new((i % GRID) as f32, (i / GRID) as f32) + 0.5) / GRID as f32;
+                let hit = geometry.intersect(&rays.ray(uv * size))?;
+                (geometry.attrs(hit.tri).material == material).then_some((uv.x, uv.x))
+            })
+            .reduce_with(|a, b| (a.0.min(b.0), a.1.max(b.1)))
     }
 
     /// Lights the scene with `settings`. A map is read only when its path changes; on error
@@ -542,7 +604,7 @@ impl ViewerState {
 
     /// Puts the camera back to the file's camera `index`, or the default view.
     pub fn reset_camera(&mut self, index: Option<usize>) {
-        let aspect = self.aspect();
+        let aspect = self.free_aspect();
         let camera = index.and_then(|i| self.scene.cameras.get(i)).map(|(_, c)| *c);
         self.camera = controller_for(&self.scene, camera, aspect);
     }
@@ -556,12 +618,23 @@ impl ViewerState {
     }
 
     /// Logs a shown image's estimated error, if it is a full-resolution one (previews
-    /// during camera motion are not part of the job's convergence).
+    /// during camera motion are not part of the job's convergence). Curves are compared
+    /// on one image: another scene, edit, camera or size starts the log over.
     pub fn record_convergence(&mut self, snap: &Snapshot) {
         let full = self.effective_settings_full();
-        if snap.width == full.width && snap.height == full.height {
-            self.convergence.record(snap, &convergence::label(&self.sent.settings));
+        if snap.width != full.width || snap.height != full.height {
+            return;
         }
+        let size = UVec2::new(snap.width, snap.height);
+        let (seen, number) = &mut self.convergence_view;
+        let same = seen.as_ref().is_some_and(|(scene, camera, s)| {
+            std::ptr::eq(scene.as_ptr(), Arc::as_ptr(&self.sent.scene)) && *camera == self.sent.camera && *s == size
+        });
+        if !same {
+            *seen = Some((Arc::downgrade(&self.sent.scene), self.sent.camera, size));
+            *number += 1;
+        }
+        self.convergence.record(snap, &convergence::label(&self.sent.settings), *number);
     }
 
     /// Hands the latest snapshot to the denoiser if it is due, and takes its result; true
@@ -696,6 +769,7 @@ impl ViewerState {
         let saved = self.compare.store.as_ref().map(|store| store.save(self.source.as_deref(), &pin));
         let file = saved.as_ref().and_then(|s| s.as_ref().ok()).cloned();
         self.compare.set_pin(Some(pin), file);
+        self.place_divider();
         saved.transpose().map(|_| ()).map_err(|e| format!("pinned in memory only: {e}"))
     }
 
@@ -740,7 +814,7 @@ impl ViewerState {
     pub fn save_view(&self) -> Result<(), String> {
         let mut view = ViewFile {
             camera: Some(self.camera.camera()),
-            settings: self.effective_settings(),
+            settings: self.effective_settings_full(),
             display: self.display,
             environment: self.environment.clone(),
             ..ViewFile::default()
@@ -757,7 +831,7 @@ impl ViewerState {
         let settings = Settings { allow_expensive: self.settings.allow_expensive, ..view.settings };
         settings.validate().map_err(|e| format!("{}: {e}", self.view_path))?;
         self.apply_edits(&view)?;
-        let aspect = self.aspect();
+        let aspect = self.free_aspect();
         if let Some(cam) = view.camera {
             self.camera = controller_for(&self.scene, Some(cam), aspect);
         }
@@ -765,6 +839,17 @@ impl ViewerState {
         self.display = view.display;
         self.set_environment(view.environment)
     }
+}
+
+/// The full-resolution size rendered in an image area of `area` pixels: all of it, or for a
+/// camera whose frame has aspect `frame` (width over height), the largest rectangle of that
+/// aspect inside it, so that the frame is shown whole, letterboxed, instead of cropped.
+pub fn render_size(area: UVec2, frame: Option<f32>) -> UVec2 {
+    let area = area.clamp(UVec2::ONE, UVec2::splat(16384));
+    let Some(aspect) = frame.filter(|a| a.is_finite() && *a > 0.0) else { return area };
+    let (w, h) = (area.x as f32, area.y as f32);
+    let size = if w / h > aspect { (h * aspect, h) } else { (w, w / aspect) };
+    UVec2::new(size.0.round() as u32, size.1.round() as u32).clamp(UVec2::ONE, area)
 }
 
 /// Where screenshots go unless the user chooses: the scene's folder if it is writable,

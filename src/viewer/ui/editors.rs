@@ -176,16 +176,14 @@ fn save(ui: &mut Ui, state: &mut ViewerState) {
         state.reset_edits();
     }
     ui.label("save the scene with these materials and lights");
-    let result_id = ui.scope_id().with("saved");
     ui.add(egui::TextEdit::singleline(&mut state.gltf_path).desired_width(f32::INFINITY))
         .on_hover_text("a .gltf beside its buffers and images (its URIs follow it elsewhere), or a .glb for a .glb");
     if ui.button("Save glTF").clicked() {
-        let result = state.save_gltf().map(|p| format!("saved {}", p.display()));
-        ui.data_mut(|d| d.insert_temp(result_id, result));
+        state.gltf_saved = Some(state.save_gltf());
     }
-    match ui.data(|d| d.get_temp::<Result<String, String>>(result_id)) {
+    match &state.gltf_saved {
         Some(Ok(saved)) => {
-            ui.label(saved);
+            ui.label(format!("saved {}", saved.display()));
         }
         Some(Err(e)) => {
             ui.colored_label(Color32::from_rgb(255, 90, 90), e);

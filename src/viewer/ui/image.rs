@@ -46,13 +46,15 @@ pub(super) fn image(ui: &mut Ui, state: &mut ViewerState, ui_state: &mut UiState
         let uv = Rect::from_min_max(pos2(0.0, 0.0), pos2(1.0, 1.0));
         ui.painter().image(tex.id(), shown, uv, Color32::WHITE);
     }
+    let divider = super::inspect::divider_drag(ui, state, ui_state, shown);
     super::inspect::overlay(ui, state, ui_state, shown, &response);
     let height = shown.height();
     let delta = response.drag_delta();
     let d = Vec2::new(delta.x, delta.y);
     let shift = ui.input(|i| i.modifiers.shift);
     let mut moved = false;
-    if response.dragged_by(PointerButton::Primary) && d != Vec2::ZERO {
+    // While the divider has the primary button's drag, the camera does not.
+    if !divider && response.dragged_by(PointerButton::Primary) && d != Vec2::ZERO {
         if shift {
             state.camera.pan(d, height)
         } else {
@@ -73,9 +75,11 @@ pub(super) fn image(ui: &mut Ui, state: &mut ViewerState, ui_state: &mut UiState
             moved = true;
         }
     }
-    if !ui.ctx().egui_wants_keyboard_input() {
+    if !ui.ctx().egui_wants_keyboard_input() && !ui.input(|i| i.modifiers.command) {
+        // A key pressed in this frame counts even if it was released within it (a tap
+        // during a slow frame).
         let (dt, keys) = ui.input(|i| {
-            let k = |key| if i.key_down(key) { 1.0 } else { 0.0 };
+            let k = |key| if i.key_down(key) || i.key_pressed(key) { 1.0 } else { 0.0 };
             (i.stable_dt.min(0.1), Vec3::new(k(Key::D) - k(Key::A), k(Key::E) - k(Key::Q), k(Key::W) - k(Key::S)))
         });
         if keys != Vec3::ZERO {
@@ -84,6 +88,7 @@ pub(super) fn image(ui: &mut Ui, state: &mut ViewerState, ui_state: &mut UiState
         }
     }
     if response.clicked()
+        && !divider
         && let Some(p) = response.interact_pointer_pos().filter(|p| shown.contains(*p))
     {
         if ui.input(|i| i.modifiers.command) {

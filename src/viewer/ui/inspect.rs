@@ -7,7 +7,9 @@ use crate::render::Snapshot;
 use crate::viewer::compare::{CompareMode, size_mismatch, stops_difference};
 use crate::viewer::inspect::{PixelValues, pixel_at, pixel_values};
 use crate::viewer::state::ViewerState;
-use egui::{Align2, Color32, CursorIcon, FontId, Key, Pos2, Rect, Response, Sense, Stroke, Ui, pos2, vec2};
+use egui::{
+    Align2, Color32, CursorIcon, Event, FontId, Key, PointerButton, Pos2, Rect, Response, Sense, Stroke, Ui, pos2, vec2,
+};
 use glam::Vec2;
 
 /// Image position ([0, 1]^2) of screen point `p` on the image drawn in `shown`.
@@ -30,7 +32,7 @@ pub(super) fn describe(v: &PixelValues) -> String {
 pub(super) fn overlay(ui: &mut Ui, state: &mut ViewerState, ui_state: &UiState, shown: Rect, response: &Response) {
     state.compare.flip = !ui.ctx().egui_wants_keyboard_input() && ui.input(|i| i.key_down(Key::Space));
     let Some(snap) = ui_state.shown.as_deref() else { return };
-    divider(ui, state, snap, shown);
+    divider(ui, state, ui_state, snap, shown);
     let painter = ui.painter_at(shown);
     for (k, &uv) in state.probes.positions().iter().enumerate() {
         let p = shown.min + vec2(uv.x, uv.y) * shown.size();
@@ -78,22 +80,61 @@ pub(super) fn overlay(ui: &mut Ui, state: &mut ViewerState, ui_state: &UiState, 
     painter.galley(at + vec2(4.0, 4.0), galley, Color32::WHITE);
 }
 
-/// The split's divider: a line with a handle, dragged to move the split.
-fn divider(ui: &mut Ui, state: &mut ViewerState, snap: &Snapshot, shown: Rect) {
+/// Half the width of the band around the divider that grabs it, in points.
+const GRIP: f32 = 6.0;
+
+/// Whether the split's divider is drawn over the live image `snap`.
+fn split_shown(state: &ViewerState, snap: &Snapshot) -> bool {
     let comparable = state.compare.pin().is_some_and(|p| size_mismatch(p, snap.width, snap.height).is_none());
-    if !comparable || state.compare.mode() != CompareMode::Split {
+    comparable && state.compare.mode() == CompareMode::Split
+}
+
+/// Moves the split's divider with a drag that pressed on it, before the camera sees the
+/// drag: with slow frames, the press and the first movement arrive in one frame, and the
+/// pointer has left the divider by the time egui gives the drag to a widget, so the press
+/// position decides here and the divider follows the pointer. Returns whether the
+/// primary button's press belongs to the divider (the camera and picking leave it alone).
+pub(super) fn divider_drag(ui: &Ui, state: &mut ViewerState, ui_state: &mut UiState, shown: Rect) -> bool {
+    if !ui_state.shown.as_deref().is_some_and(|snap| split_shown(state, snap)) {
+        ui_state.divider_held = false;
+        return false;
+    }
+    // Where the primary button went down in this frame (from the event: a press released
+    // within the frame has no press origin any more).
+    let (pressed, down, latest) = ui.input(|i| {
+        let pressed = i.events.iter().find_map(|e| match e {
+            Event::PointerButton { pos, button: PointerButton::Primary, pressed: true, .. } => Some(*pos),
+            _ => None,
+        });
+        (pressed, i.pointer.primary_down(), i.pointer.latest_pos())
+    });
+    let x = shown.min.x + state.compare.view.split.clamp(0.0, 1.0) * shown.width();
+    if pressed.is_some_and(|p| (p.x - x).abs() <= GRIP && (shown.min.y..=shown.max.y).contains(&p.y)) {
+        ui_state.divider_held = true;
+    }
+    if !ui_state.divider_held {
+        return false;
+    }
+    if let Some(p) = latest {
+        state.compare.view.split = ((p.x - shown.min.x) / shown.width()).clamp(0.0, 1.0);
+        state.compare.divider_moved = true;
+    }
+    ui_state.divider_held = down;
+    true
+}
+
+/// The split's divider: a line with a handle (dragged by `divider_drag`).
+fn divider(ui: &mut Ui, state: &mut ViewerState, ui_state: &UiState, snap: &Snapshot, shown: Rect) {
+    if !split_shown(state, snap) {
         return;
     }
     let x = shown.min.x + state.compare.view.split.clamp(0.0, 1.0) * shown.width();
-    let grip = Rect::from_min_max(pos2(x - 6.0, shown.min.y), pos2(x + 6.0, shown.max.y));
+    let grip = Rect::from_min_max(pos2(x - GRIP, shown.min.y), pos2(x + GRIP, shown.max.y));
     let response = ui
-        .interact(grip, ui.make_persistent_id("compare divider"), Sense::drag())
+        .interact(grip, ui.make_persistent_id("compare divider"), Sense::hover())
         .on_hover_cursor(CursorIcon::ResizeHorizontal);
-    if response.dragged() {
-        state.compare.view.split = (state.compare.view.split + response.drag_delta().x / shown.width()).clamp(0.0, 1.0);
-    }
     let painter = ui.painter_at(shown);
-    let stroke = Stroke::new(if response.hovered() || response.dragged() { 3.0 } else { 2.0 }, Color32::WHITE);
+    let stroke = Stroke::new(if response.hovered() || ui_state.divider_held { 3.0 } else { 2.0 }, Color32::WHITE);
     painter
         .line_segment([pos2(x, shown.min.y), pos2(x, shown.max.y)], Stroke::new(4.0, Color32::from_black_alpha(120)));
     painter.line_segment([pos2(x, shown.min.y), pos2(x, shown.max.y)], stroke);

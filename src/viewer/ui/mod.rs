@@ -1,9 +1,12 @@
-//! The egui panels: status and render controls on the left, the selection's material and
-//! the lights on the right, the converging image in the middle with camera controls.
+//! The egui panels: status (always in view) and render controls on the left, the
+//! selection's material and the lights on the right, the converging image in the middle
+//! with camera controls.
 
 mod editors;
 mod image;
 mod inspect;
+#[cfg(test)]
+mod tests;
 mod tools;
 mod widgets;
 
@@ -14,11 +17,14 @@ use crate::integrator::{Integrator, Settings};
 use crate::params::Group;
 use crate::render::Snapshot;
 use crate::scene::environment::BUILT_IN;
-use egui::{Color32, Key, Ui};
+use egui::{Color32, Key, Modifiers, Ui};
 use egui_plot::{GridMark, Legend, Line, Plot, log_grid_spacer};
 use std::time::Instant;
 pub(super) use widgets::param_widget;
 use widgets::{colour_and_amount, legend};
+
+/// What the firefly clamp trades, in one line beside it (the hover text says more).
+const CLAMP_TRADE: &str = "bias for less noise: dims glass caustics";
 
 /// UI-only state that does not affect the image.
 pub struct UiState {
@@ -33,6 +39,9 @@ pub struct UiState {
     /// Cached figures of the look-dev tools.
     pub tools: tools::ToolsUi,
     last_input: Option<Instant>,
+    /// The primary button was pressed on the split's divider and is still down: the drag
+    /// moves the divider, not the camera.
+    divider_held: bool,
 }
 
 impl UiState {
@@ -45,15 +54,26 @@ impl UiState {
             quit: false,
             tools: tools::ToolsUi::default(),
             last_input: None,
+            divider_held: false,
         }
     }
 }
 
 /// Draws one frame of UI and applies what the user did to `state`.
 pub fn draw(ui: &mut Ui, state: &mut ViewerState, ui_state: &mut UiState) {
+    // Key presses are taken from this frame's events with the modifiers each was pressed
+    // with: a Ctrl+Q pressed and released within one slow frame is not missed, as it was
+    // when the modifiers were read as held at the end of the frame.
+    ui_state.quit |= ui.input_mut(|i| i.consume_key(Modifiers::COMMAND, Key::Q));
+    if ui.input_mut(|i| i.consume_key(Modifiers::NONE, Key::F12)) {
+        screenshot(state);
+    }
     // The panel's width changes only when the user drags its edge: content wraps or is
     // cut, and the scroll bar floats over it, so the image (and its resolution) stays put.
+    // The status and the target stay above the scrolled controls, always in view.
     egui::Panel::left("controls").resizable(true).default_size(330.0).size_range(260.0..=520.0).show(ui, |ui| {
+        header(ui, state, ui_state);
+        ui.separator();
         egui::ScrollArea::vertical().auto_shrink([false; 2]).show(ui, |ui| controls(ui, state, ui_state));
     });
     egui::Panel::right("editors").resizable(true).default_size(350.0).size_range(220.0..=560.0).show(ui, |ui| {
@@ -61,10 +81,6 @@ pub fn draw(ui: &mut Ui, state: &mut ViewerState, ui_state: &mut UiState) {
     });
     egui::CentralPanel::no_frame().show(ui, |ui| image::image(ui, state, ui_state));
     notices(ui, state);
-    if ui.input(|i| i.key_pressed(Key::F12)) {
-        screenshot(state);
-    }
-    ui_state.quit |= ui.input(|i| i.modifiers.command && i.key_pressed(Key::Q));
 }
 
 /// The last error and the last message, over the bottom of the image (wherever the
@@ -116,12 +132,16 @@ fn status(ui: &mut Ui, state: &ViewerState, ui_state: &UiState) {
                 s.rays_per_second() / 1e6
             ));
             let noise = s.relative_error().map_or("-".into(), |e| format!("{:.2}%", 100.0 * e));
-            let bound = if s.estimate.honest() {
-                ""
-            } else {
-                " (overstated: Sobol's stratified samples are better than their spread; a noise threshold estimates it honestly)"
-            };
-            ui.label(format!("noise (rel. std. error) {noise}{bound}, NaN/Inf dropped {}", s.rejected));
+            let noise = ui.label(format!(
+                "noise (rel. std. error) {noise}{}, NaN/Inf dropped {}",
+                if s.estimate.honest() { "" } else { " (overstated)" },
+                s.rejected
+            ));
+            if !s.estimate.honest() {
+                noise.on_hover_text(
+                    "Sobol's stratified samples are better than their spread; a noise threshold estimates it honestly",
+                );
+            }
             if !s.pixel_spp.is_empty() {
                 let (low, high) = false_colour::spp_range(&s.pixel_spp, s.spp);
                 ui.label(format!(
@@ -144,7 +164,9 @@ fn status(ui: &mut Ui, state: &ViewerState, ui_state: &UiState) {
     ui.label(format!("UI frame {:.1} ms, restart to image {latency}", ui_state.frame_ms));
 }
 
-fn controls(ui: &mut Ui, state: &mut ViewerState, ui_state: &mut UiState) {
+/// The top of the left panel, never scrolled away: the scene, the status, the target and
+/// its progress, pause and screenshot.
+fn header(ui: &mut Ui, state: &mut ViewerState, ui_state: &UiState) {
     ui.heading(format!("Lucent: {}", state.scene.name));
     status(ui, state, ui_state);
     tools::progress(ui, state);
@@ -157,7 +179,9 @@ fn controls(ui: &mut Ui, state: &mut ViewerState, ui_state: &mut UiState) {
             screenshot(state);
         }
     });
-    ui.separator();
+}
+
+fn controls(ui: &mut Ui, state: &mut ViewerState, ui_state: &mut UiState) {
     egui::CollapsingHeader::new("Estimator").default_open(true).show(ui, |ui| estimator(ui, state));
     egui::CollapsingHeader::new("Display").default_open(true).show(ui, |ui| {
         tools::display(ui, state, ui_state);
@@ -186,6 +210,11 @@ fn estimator(ui: &mut Ui, state: &mut ViewerState) {
     let s = &mut state.settings;
     for p in Settings::table().iter().filter(|p| p.group == Group::Estimator) {
         param_widget(ui, p, s);
+        if p.name == "clamp" {
+            ui.label(egui::RichText::new(CLAMP_TRADE).small().weak()).on_hover_text(
+                "the clamp removes the energy of bright paths (caustics through glass, small bright lights)                  above its value: less noise, a darker, biased image",
+            );
+        }
     }
     if s.integrator == Integrator::Path && state.scene.delta_lights_behind_glass() {
         ui.label("point, spot or sun light through glass: the caustics it casts need bdpt or vcm");

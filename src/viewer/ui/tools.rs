@@ -124,8 +124,10 @@ pub(super) fn compare(ui: &mut Ui, state: &mut ViewerState, ui_state: &UiState) 
     ui.label("hold Space to flip to the pinned image");
     match view.mode {
         CompareMode::Split => {
-            ui.add(egui::Slider::new(&mut view.split, 0.0..=1.0).text("divider"))
-                .on_hover_text("or drag it on the image");
+            let slider = ui.add(egui::Slider::new(&mut view.split, 0.0..=1.0).text("divider"));
+            if slider.on_hover_text("or drag it on the image; it follows the selection until moved").changed() {
+                state.compare.divider_moved = true;
+            }
         }
         CompareMode::Difference => {
             ui.add(egui::Slider::new(&mut view.stops, 0.05..=8.0).logarithmic(true).text("stops at full colour"));

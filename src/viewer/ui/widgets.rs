@@ -7,7 +7,8 @@ use glam::Vec3;
 
 /// The widget of one table parameter, shown only where the parameter applies: a checkbox,
 /// a slider for short ranges, a drag value for long ones, a menu for choices; optional
-/// parameters get a checkbox that sets or unsets them.
+/// parameters get a checkbox that sets or unsets them, their value beside it greyed out
+/// while unset, so that ticking it does not move what follows.
 pub(in crate::viewer) fn param_widget<T>(ui: &mut Ui, p: &Param<T>, target: &mut T) {
     if !(p.shown)(target) {
         return;
@@ -33,16 +34,15 @@ pub(in crate::viewer) fn param_widget<T>(ui: &mut Ui, p: &Param<T>, target: &mut
                     ui.checkbox(&mut set, p.label).on_hover_text(p.help);
                 }
                 let mut i = if let Value::Int(i) = v { i } else { 256u64.clamp(min, max) };
-                if set {
-                    let widget = if max - min <= 64 {
-                        ui.add(egui::Slider::new(&mut i, min..=max).text(if optional { "" } else { p.label }))
-                    } else {
-                        ui.add(egui::DragValue::new(&mut i).range(min..=max))
-                    };
-                    widget.on_hover_text(p.help);
-                    if !optional && max - min > 64 {
-                        ui.label(p.label);
-                    }
+                let widget = if max - min <= 64 {
+                    let slider = egui::Slider::new(&mut i, min..=max).text(if optional { "" } else { p.label });
+                    ui.add_enabled(set, slider)
+                } else {
+                    ui.add_enabled(set, egui::DragValue::new(&mut i).range(min..=max))
+                };
+                widget.on_hover_text(p.help);
+                if !optional && max - min > 64 {
+                    ui.label(p.label);
                 }
                 if set { Value::Int(i) } else { Value::Unset }
             })
@@ -55,12 +55,11 @@ pub(in crate::viewer) fn param_widget<T>(ui: &mut Ui, p: &Param<T>, target: &mut
                     ui.checkbox(&mut set, p.label).on_hover_text(p.help);
                 }
                 let mut x = if let Value::Float(x) = v { x } else { 10.0f32.clamp(min, max) };
-                if set {
-                    if max - min <= 100.0 {
-                        ui.add(egui::Slider::new(&mut x, min..=max).text(if optional { "" } else { p.label }));
-                    } else {
-                        ui.add(egui::DragValue::new(&mut x).range(min..=max).speed(0.1));
-                    }
+                if max - min <= 100.0 {
+                    let slider = egui::Slider::new(&mut x, min..=max).text(if optional { "" } else { p.label });
+                    ui.add_enabled(set, slider);
+                } else {
+                    ui.add_enabled(set, egui::DragValue::new(&mut x).range(min..=max).speed(0.1));
                 }
                 if set { Value::Float(x) } else { Value::Unset }
             })
