@@ -30,6 +30,16 @@ fn wheel_lines(event: &egui::Event) -> f32 {
     }
 }
 
+/// When to draw the next frame while the camera preview is held, `held` after the last
+/// camera input: a fly key held moves the camera every frame, so soon (16 ms); otherwise
+/// only when the hold ends and the render sharpens. Mouse input and new images bring their
+/// own frames. A frame every 16 ms through the whole hold, as before, spent a core on
+/// frames of 50-80 ms under software rendering while a drag already drew one per motion
+/// event, taking it from the workers rendering the preview.
+pub(super) fn preview_repaint(flying: bool, held: Duration) -> Duration {
+    if flying { Duration::from_millis(16) } else { PREVIEW_HOLD.saturating_sub(held) }
+}
+
 pub(super) fn image(ui: &mut Ui, state: &mut ViewerState, ui_state: &mut UiState) {
     let (rect, response) = ui.allocate_exact_size(ui.available_size(), Sense::click_and_drag());
     let ppp = ui.ctx().pixels_per_point();
@@ -75,6 +85,7 @@ pub(super) fn image(ui: &mut Ui, state: &mut ViewerState, ui_state: &mut UiState
             moved = true;
         }
     }
+    let mut flying = false;
     if !ui.ctx().egui_wants_keyboard_input() && !ui.input(|i| i.modifiers.command) {
         // A key pressed in this frame counts even if it was released within it (a tap
         // during a slow frame).
@@ -85,6 +96,7 @@ pub(super) fn image(ui: &mut Ui, state: &mut ViewerState, ui_state: &mut UiState
         if keys != Vec3::ZERO {
             state.camera.fly(keys, state.fly_speed * dt);
             moved = true;
+            flying = true;
         }
     }
     if response.clicked()
@@ -101,9 +113,9 @@ pub(super) fn image(ui: &mut Ui, state: &mut ViewerState, ui_state: &mut UiState
     if moved {
         ui_state.last_input = Some(now);
     }
-    let previewing = ui_state.last_input.is_some_and(|t| now - t < PREVIEW_HOLD);
-    state.moving = previewing;
-    if previewing {
-        ui.ctx().request_repaint_after(Duration::from_millis(16));
+    let held = ui_state.last_input.map(|t| now - t).filter(|d| *d < PREVIEW_HOLD);
+    state.moving = held.is_some();
+    if let Some(held) = held {
+        ui.ctx().request_repaint_after(preview_repaint(flying, held));
     }
 }

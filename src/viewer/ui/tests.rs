@@ -155,3 +155,13 @@ fn a_divider_pressed_and_dragged_within_one_frame_moves_the_divider_not_the_came
     assert_eq!(h.state.camera, camera, "the camera orbited");
     assert!(h.state.compare.view.split > split && h.state.compare.divider_moved, "the divider stayed");
 }
+
+#[test]
+fn a_held_preview_repaints_when_it_ends_unless_a_fly_key_moves_the_camera() {
+    use super::image::preview_repaint;
+    // A frame every 16 ms through the whole hold took a core from the render workers
+    // under software rendering: only flying needs one.
+    assert_eq!(preview_repaint(false, Duration::from_millis(50)), Duration::from_millis(150));
+    assert_eq!(preview_repaint(false, Duration::from_millis(250)), Duration::ZERO);
+    assert_eq!(preview_repaint(true, Duration::from_millis(50)), Duration::from_millis(16));
+}
