@@ -140,6 +140,24 @@ fn a_file_camera_with_an_aspect_ratio_is_letterboxed_whole() {
 }
 
 #[test]
+fn the_camera_list_says_what_each_file_camera_frames() {
+    // prism.gltf's camera looks at the prism (62% of its frame) in front of the wall; the same camera turned
+    // round sees only the background.
+    let desc = lucent::loader::gltf::load(Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/docs/scenes/prism.gltf")));
+    let mut scene = Scene::build(desc.unwrap());
+    let mut away = scene.cameras[0].clone();
+    away.1.rotation *= glam::Quat::from_rotation_y(std::f32::consts::PI);
+    scene.cameras.push(away);
+    let settings = Settings { width: 48, height: 48, ..Settings::default() };
+    let state = ViewerState::new(scene, None, settings, true, Display::default(), None, Some(1)).unwrap();
+    let subjects = state.camera_subjects();
+    assert_eq!(subjects.len(), 2);
+    assert!(subjects[0].starts_with("flint "), "the prism fills most of the frame: {}", subjects[0]);
+    assert!(subjects[0].contains(", wall "), "the wall behind it: {}", subjects[0]);
+    assert_eq!(subjects[1], "background only");
+}
+
+#[test]
 fn an_edit_under_the_pinned_half_moves_the_divider_onto_the_selection() {
     let mut state = viewer();
     state.wait_for_update(None, Duration::from_secs(30)).expect("an image");

@@ -609,6 +609,12 @@ impl ViewerState {
         self.camera = controller_for(&self.scene, camera, aspect);
     }
 
+    /// What each of the file's cameras frames, in the order of `scene.cameras`
+    /// (`camera_subject`).
+    pub fn camera_subjects(&self) -> Vec<String> {
+        self.scene.cameras.iter().map(|(_, camera)| camera_subject(&self.scene, camera)).collect()
+    }
+
     /// The material seen through image position `uv` ([0, 1]^2, top-left origin).
     pub fn pick(&self, uv: Vec2) -> Option<u32> {
         let s = self.effective_settings();
@@ -888,6 +894,38 @@ fn environment_maps(startup: Option<&Path>, dir: &Path) -> Vec<PathBuf> {
     maps.extend(startup.map(Path::to_path_buf));
     maps.extend(found.into_iter().filter(|p| startup.is_none_or(|s| !same(s, p))));
     maps
+}
+
+/// What `camera` frames, for the camera list: the materials covering most of its frame,
+/// largest share first, from a grid of 16 rows of primary rays in the frame's aspect (at
+/// most two, each over 5% of the rays; "background only" when no ray hits). 256 rays: cheap
+/// enough to run whenever the list is open, unlike a thumbnail render.
+pub fn camera_subject(scene: &Scene, camera: &Camera) -> String {
+    const ROWS: u32 = 16;
+    let aspect = camera.aspect.filter(|a| a.is_finite() && *a > 0.0).unwrap_or(1.0);
+    let (w, h) = (((ROWS as f32 * aspect).round() as u32).clamp(1, 4 * ROWS), ROWS);
+    let rays = camera.rays(w, h);
+    let mut counts = vec![0u32; scene.materials.len()];
+    for i in 0..w * h {
+        let film = Vec2::new((i % w) as f32 + 0.5, (i / w) as f32 + 0.5);
+        if let Some(hit) = scene.geometry.intersect(&rays.ray(film))
+            && let Some(c) = counts.get_mut(scene.geometry.attrs(hit.tri).material as usize)
+        {
+            *c += 1;
+        }
+    }
+    let mut seen: Vec<(usize, u32)> = counts.into_iter().enumerate().filter(|(_, c)| 20 * c > w * h).collect();
+    seen.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(&b.0)));
+    let parts: Vec<String> = seen
+        .iter()
+        .take(2)
+        .map(|&(m, c)| {
+            let name = &scene.materials[m].name;
+            let name = if name.is_empty() { format!("material {m}") } else { name.clone() };
+            format!("{name} {:.0}%", 100.0 * c as f32 / (w * h) as f32)
+        })
+        .collect();
+    if parts.is_empty() { "background only".into() } else { parts.join(", ") }
 }
 
 /// A controller for `camera` (or the scene's default view), orbiting the scene's centre depth.

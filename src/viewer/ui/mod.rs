@@ -334,8 +334,10 @@ fn camera(ui: &mut Ui, state: &mut ViewerState) {
     let names: Vec<String> = state.scene.cameras.iter().map(|(n, _)| n.clone()).collect();
     if !names.is_empty() {
         egui::ComboBox::from_label("file cameras").selected_text("choose").show_ui(ui, |ui| {
-            for (i, n) in names.iter().enumerate() {
-                if ui.selectable_label(false, n).clicked() {
+            // Each camera with what it frames: the materials covering most of its view.
+            let subjects = state.camera_subjects();
+            for (i, (n, subject)) in names.iter().zip(subjects).enumerate() {
+                if ui.selectable_label(false, format!("{n}: {subject}")).clicked() {
                     state.reset_camera(Some(i));
                 }
             }
