@@ -28,9 +28,9 @@ pub struct Target {
     pub error: f64,
 }
 
-/// The default target error: 20% estimated error, reached at the viewer's size on 2 cores
-/// in about 8 s on the Cornell box (18 spp) and 26 s in the subsurface scene, where 1% took
-/// hours. It is the estimate from the sample variance, which overstates the Sobol sampler's
+/// The default target error: 20% estimated error, reached in a 1280x800 window on 2 cores
+/// in about 5 s on the Cornell box (15 spp) and 14 s in the subsurface scene (23 spp), where
+/// 1% took hours. It is the estimate from the sample variance, which overstates the Sobol sampler's
 /// true error about threefold (tests/adaptive.rs); at that noise the denoised Cornell box
 /// is already closer to a 512-spp reference on screen than the noisy image at 128 spp
 /// (tests/denoise.rs, docs/accuracy.md).
