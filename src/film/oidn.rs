@@ -193,10 +193,9 @@ impl Oidn {
         Err(format!("Open Image Denoise: {kind}: {text}"))
     }
 
-    /// Whether a CPU device can be made (the library loads without its device module or
-    /// TBB, and only making a device finds out).
-    fn check_device(&self) -> Result<(), String> {
-        // SAFETY: the device is checked for null and released once.
+    /// Runs `f` on a new, committed CPU device, released afterwards.
+    fn with_device<T>(&self, f: impl FnOnce(Handle) -> Result<T, String>) -> Result<T, String> {
+        // SAFETY: the device is checked for null before use and released once, after `f`.
         unsafe {
             let device = (self.new_device)(DEVICE_CPU);
             if device.is_null() {
@@ -204,10 +203,16 @@ impl Oidn {
                 return Err("Open Image Denoise: no CPU device".into());
             }
             (self.commit_device)(device);
-            let result = self.error(device);
+            let result = self.error(device).and_then(|()| f(device));
             (self.release_device)(device);
             result
         }
+    }
+
+    /// Whether a CPU device can be made (the library loads without its device module or
+    /// TBB, and only making a device finds out).
+    fn check_device(&self) -> Result<(), String> {
+        self.with_device(|_| Ok(()))
     }
 }
 
@@ -241,54 +246,45 @@ pub fn available() -> Result<(), String> {
 pub fn filter(color: &[f32], guide: Option<(&[f32], &[f32])>, width: usize, height: usize) -> Result<Vec<f32>, String> {
     let oidn = Oidn::get()?;
     let mut output = vec![0.0f32; color.len()];
-    // SAFETY: every handle is checked before use and released once; the images outlive
-    // the filter's execution, which is synchronous, and hold width x height f32 triples.
-    unsafe {
-        let device = (oidn.new_device)(DEVICE_CPU);
-        if device.is_null() {
-            oidn.error(std::ptr::null_mut())?;
-            return Err("Open Image Denoise: no device".into());
-        }
-        let result = (|| {
-            (oidn.commit_device)(device);
-            oidn.error(device)?;
+    oidn.with_device(|device| {
+        // SAFETY: the filter is released once; the images outlive its execution, which is
+        // synchronous, and hold width x height f32 triples.
+        unsafe {
             let rt = CString::new("RT").expect("no NUL");
             let filter = (oidn.new_filter)(device, rt.as_ptr());
             oidn.error(device)?;
-            let run = (|| {
-                let set = |name: &str, data: *const f32| {
-                    let name = CString::new(name).expect("no NUL");
-                    (oidn.set_shared_filter_image)(
-                        filter,
-                        name.as_ptr(),
-                        data as *mut c_void,
-                        FORMAT_FLOAT3,
-                        width,
-                        height,
-                        0,
-                        0,
-                        0,
-                    );
-                };
-                set("color", color.as_ptr());
-                if let Some((albedo, normal)) = guide {
-                    set("albedo", albedo.as_ptr());
-                    set("normal", normal.as_ptr());
-                }
-                set("output", output.as_mut_ptr());
-                let hdr = CString::new("hdr").expect("no NUL");
-                (oidn.set_filter_bool)(filter, hdr.as_ptr(), true);
-                (oidn.commit_filter)(filter);
-                oidn.error(device)?;
+            let set = |name: &str, data: *const f32| {
+                let name = CString::new(name).expect("no NUL");
+                let format = FORMAT_FLOAT3;
+                (oidn.set_shared_filter_image)(
+                    filter,
+                    name.as_ptr(),
+                    data as *mut c_void,
+                    format,
+                    width,
+                    height,
+                    0,
+                    0,
+                    0,
+                );
+            };
+            set("color", color.as_ptr());
+            if let Some((albedo, normal)) = guide {
+                set("albedo", albedo.as_ptr());
+                set("normal", normal.as_ptr());
+            }
+            set("output", output.as_mut_ptr());
+            let hdr = CString::new("hdr").expect("no NUL");
+            (oidn.set_filter_bool)(filter, hdr.as_ptr(), true);
+            (oidn.commit_filter)(filter);
+            let run = oidn.error(device).and_then(|()| {
                 (oidn.execute_filter)(filter);
                 oidn.error(device)
-            })();
+            });
             (oidn.release_filter)(filter);
             run
-        })();
-        (oidn.release_device)(device);
-        result?;
-    }
+        }
+    })?;
     Ok(output)
 }
 
