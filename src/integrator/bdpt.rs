@@ -176,6 +176,16 @@ pub struct Merging<'p> {
     pub index: u64,
 }
 
+/// Where a sample's light subpath draws its numbers: apart from the camera subpath's,
+/// whose length varies, so that each light vertex's draws are stratified over the pixel.
+const LIGHT_DRAWS: u32 = 1 << 12;
+
+/// Where strategy (s, t) draws its numbers (next-event estimation's light and point, a
+/// medium's transmittance), eight draws apiece, each at the same place in every sample.
+fn connection_draws(s: usize, t: usize) -> u32 {
+    (1 << 13) + 8 * (t * (MAX_VERTICES + 1) + s) as u32
+}
+
 /// What one BDPT sample adds to its own pixel, and the light-tracing contributions it splats
 /// elsewhere (film positions in pixels). With `merging` (vertex connection and merging) the
 /// light subpath is the pixel's of the iteration, and every camera vertex also merges with
@@ -197,7 +207,7 @@ pub fn radiance(
     camera_subpath(cx, view, ray, sampler, max, &mut camera, (&mut out, &mut aov, wl));
     match merging {
         Some(m) => light_subpath(cx, &mut light_sampler(cx, m.pixel, m.index), max - 1, &mut light, (&mut out, wl)),
-        None => light_subpath(cx, sampler, max - 1, &mut light, (&mut out, wl)),
+        None => light_subpath(cx, &mut sampler.fork(LIGHT_DRAWS), max - 1, &mut light, (&mut out, wl)),
     }
     // Both subpaths are traced: the wavelengths they carry are final.
     let wl = &*wl;
@@ -210,6 +220,7 @@ pub fn radiance(
             if (s == 1 && t == 1) || depth < 0 || depth > cx.settings.max_depth as i64 || only.is_some_and(|o| o != s) {
                 continue;
             }
+            let sampler = &mut sampler.fork(connection_draws(s, t));
             if let Some((l, film)) = connect(cx, view, (&light, s), (&camera, t), (sampler, eta, wl), &mut out) {
                 match film {
                     Some(film) => splat(film, wl.to_rgb(l)),

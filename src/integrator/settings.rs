@@ -222,12 +222,17 @@ impl Settings {
     }
 
     /// Whether the control variate of seen emitters' edges keeps the estimate unbiased
-    /// (uniform pixel positions) and the estimator adds what camera rays find in full
-    /// (path tracing, no clamp): where its switch is shown.
+    /// (uniform pixel positions) and the estimator adds what camera rays find in full (no
+    /// clamp; path tracing, or the bidirectional estimators, whose camera subpath finding an
+    /// emitter from the camera is the one strategy for such a path, unless `--strategy`
+    /// shows another alone): where its switch is shown.
     fn edges_fit(&self) -> bool {
-        self.integrator == Integrator::Path
-            && self.pixel_sampling != PixelSampling::Grid
-            && self.firefly_clamp.is_none()
+        let full = match self.integrator {
+            Integrator::Path | Integrator::Vcm => true,
+            Integrator::Bdpt => self.strategy.is_none_or(|s| s == 0),
+            Integrator::Distribution => false,
+        };
+        full && self.pixel_sampling != PixelSampling::Grid && self.firefly_clamp.is_none()
     }
 
     /// The parameter table.

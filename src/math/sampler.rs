@@ -36,14 +36,11 @@ pub struct Sampler {
 }
 
 enum Inner {
-    Independent(Pcg32),
+    /// The stream, and where this sample's part of it starts (for `fork`).
+    Independent(Pcg32, Pcg32),
     /// Sample `index` of the pixel's sequences, its bits reversed (scrambled from
     /// `scramble`); `dimension` counts the draws made so far.
-    Sobol {
-        index_rev: u32,
-        scramble: u64,
-        dimension: u32,
-    },
+    Sobol { index_rev: u32, scramble: u64, dimension: u32 },
 }
 
 impl Sampler {
@@ -56,7 +53,7 @@ impl Sampler {
     fn independent(stream: u64, index: u64) -> Self {
         let mut rng = Pcg32::new(mix64(stream ^ 0x9e37_79b9_7f4a_7c15), stream);
         rng.advance(index.wrapping_mul(DIMENSIONS_PER_SAMPLE));
-        Self { inner: Inner::Independent(rng) }
+        Self { inner: Inner::Independent(rng.clone(), rng) }
     }
 
     /// Starts sample `index` of `pixel` for `seed` from the sequence of `kind`.
@@ -78,7 +75,7 @@ impl Sampler {
     #[inline]
     pub fn next_1d(&mut self) -> f32 {
         match &mut self.inner {
-            Inner::Independent(rng) => (rng.next_u32() >> 8) as f32 * (1.0 / (1u32 << 24) as f32),
+            Inner::Independent(rng, _) => (rng.next_u32() >> 8) as f32 * (1.0 / (1u32 << 24) as f32),
             Inner::Sobol { index_rev, scramble, dimension } => {
                 *dimension += 1;
                 sobol_1d(*index_rev, draw_seed(*scramble, *dimension))
@@ -92,7 +89,7 @@ impl Sampler {
     #[inline]
     pub fn next_2d(&mut self) -> Vec2 {
         match &mut self.inner {
-            Inner::Independent(_) => {
+            Inner::Independent(..) => {
                 let x = self.next_1d();
                 Vec2::new(x, self.next_1d())
             }
@@ -101,6 +98,26 @@ impl Sampler {
                 Vec2::from(sobol_2d(*index_rev, draw_seed(*scramble, *dimension)))
             }
         }
+    }
+}
+
+impl Sampler {
+    /// The same sample's numbers from draw `dimension` on, whatever this one has drawn: a
+    /// fixed place in the sample's stream for draws that follow a variable number of others
+    /// so that each is stratified over the pixel's samples. `dimension` stays below `DIMENSIONS_PER_SAMPLE` / 2.
+    pub fn fork(&self, dimension: u32) -> Sampler {
+        debug_assert!((dimension as u64) < DIMENSIONS_PER_SAMPLE / 2);
+        let inner = match &self.inner {
+            Inner::Independent(_, start) => {
+                let mut rng = start.clone();
+                rng.advance(2 * dimension as u64);
+                Inner::Independent(rng, start.clone())
+            }
+            Inner::Sobol { index_rev, scramble, .. } => {
+                Inner::Sobol { index_rev: *index_rev, scramble: *scramble, dimension }
+            }
+        };
+        Sampler { inner }
     }
 }
 
@@ -232,6 +249,28 @@ mod tests {
         assert_ne!(draw(p, 5, 1), draw(p, 5, 2));
         assert_ne!(draw(p, 5, 1), draw(UVec2::new(7, 3), 5, 1));
         assert!(draw(p, 5, 1).iter().all(|&x| (0.0..1.0).contains(&x)));
+    }
+
+    #[test]
+    fn a_fork_draws_what_a_fresh_sample_draws_there_whatever_was_drawn_before() {
+        let p = UVec2::new(2, 6);
+        for kind in [SamplerKind::Independent, SamplerKind::Sobol] {
+            for index in [0, 9] {
+                let mut fresh = Sampler::of_kind(kind, p, index, 5);
+                for _ in 0..40 {
+                    fresh.next_2d();
+                }
+                let expected = [fresh.next_2d(), fresh.next_2d()];
+                for drawn in [0, 3, 57] {
+                    let mut s = Sampler::of_kind(kind, p, index, 5);
+                    for _ in 0..drawn {
+                        s.next_1d();
+                    }
+                    let mut f = s.fork(40);
+                    assert_eq!([f.next_2d(), f.next_2d()], expected, "{kind:?}, sample {index}, {drawn} drawn");
+                }
+            }
+        }
     }
 
     #[test]
