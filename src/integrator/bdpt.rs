@@ -214,6 +214,7 @@ pub fn radiance(
     let eta = merging.map_or(0.0, |m| m.photons.eta);
     let mut total = Spectrum::ZERO;
     let only = one_strategy(cx).map(|s| s as usize);
+    let mut densities = PathDensities::new(&camera, &light);
     for t in 1..=camera.len() {
         for s in 0..=light.len() {
             let depth = s as i64 + t as i64 - 2;
@@ -221,7 +222,8 @@ pub fn radiance(
                 continue;
             }
             let sampler = &mut sampler.fork(connection_draws(s, t));
-            if let Some((l, film)) = connect(cx, view, (&light, s), (&camera, t), (sampler, eta, wl), &mut out) {
+            let weights = (&mut densities, eta);
+            if let Some((l, film)) = connect(cx, view, (&light, s), (&camera, t), (sampler, weights, wl), &mut out) {
                 match film {
                     Some(film) => splat(film, wl.to_rgb(l)),
                     None => total += l,
@@ -230,7 +232,7 @@ pub fn radiance(
         }
     }
     if let Some(m) = merging {
-        total += merge(cx, &camera, m.photons, wl);
+        total += merge(cx, &camera, m.photons, &mut densities, wl);
     }
     out.radiance = total;
     out.aov = aov.finish();
@@ -242,7 +244,13 @@ pub fn radiance(
 /// constant kernel over the disc pi r^2, of which N light paths each count 1 / N), each
 /// weighted against every connection and merge that could have made its path (Georgiev et
 /// al. 2012, section 4.2).
-fn merge(cx: Context, camera: &[PathVertex], photons: &Photons, wl: &Wavelengths) -> Spectrum {
+fn merge(
+    cx: Context,
+    camera: &[PathVertex],
+    photons: &Photons,
+    densities: &mut PathDensities,
+    wl: &Wavelengths,
+) -> Spectrum {
     let mut total = Spectrum::ZERO;
     for t in 2..=camera.len() {
         let z = &camera[t - 1];
@@ -267,7 +275,8 @@ fn merge(cx: Context, camera: &[PathVertex], photons: &Photons, wl: &Wavelengths
             if f.is_black() {
                 return;
             }
-            let weight = merge_weight(cx, (camera, t), &photons.vertices[i + 1 - s..=i], (wi, wl), photons.eta);
+            let light = &photons.vertices[i + 1 - s..=i];
+            let weight = merge_weight(cx, (camera, t), light, (wi, wl), (densities, photons.eta));
             // A light path that kept only its hero wavelength counts for it alone.
             let l = f * y.beta * weight;
             sum += if y.hero_only { wl.hero_only(l) } else { l };
@@ -286,16 +295,13 @@ fn merge_weight(
     (camera, t): (&[PathVertex], usize),
     light: &[LightVertex],
     (wi, wl): (Vec3, &Wavelengths),
-    eta: f32,
+    (densities, eta): (&mut PathDensities, f32),
 ) -> f32 {
     let s = light.len();
     let (z, before) = (&camera[t - 1], &camera[t - 2]);
     let Some(zs) = z.surface.as_ref() else { return 0.0 };
-    let mut cam = [Densities::default(); MAX_VERTICES];
-    let mut lig = [Densities::default(); MAX_VERTICES];
-    for (d, v) in cam.iter_mut().zip(&camera[..t - 1]) {
-        *d = v.densities();
-    }
+    let PathDensities { cam, merged: lig, .. } = densities;
+    let kept = cam[t - 2];
     for (d, v) in lig.iter_mut().zip(light) {
         *d = v.densities;
     }
@@ -312,6 +318,7 @@ fn merge_weight(
     let sum = strategy_sum(&cam[..t - 1], &lig[..s], light[0].delta_light, eta);
     let m = remap0(lig[s - 1].rev) / remap0(lig[s - 1].fwd) * remap0(lig[s - 1].fwd) * eta;
     let w = m * m / (connection + sum);
+    cam[t - 2] = kept;
     if w.is_finite() { w } else { 0.0 }
 }
 
@@ -679,7 +686,7 @@ fn connect(
     view: &View,
     (light, s): (&[PathVertex], usize),
     (camera, t): (&[PathVertex], usize),
-    (sampler, eta, wl): (&mut Sampler, f32, &Wavelengths),
+    (sampler, (densities, eta), wl): (&mut Sampler, (&mut PathDensities, f32), &Wavelengths),
     out: &mut PathOutput,
 ) -> Option<(Spectrum, Option<Vec2>)> {
     let pt = &camera[t - 1];
@@ -776,7 +783,7 @@ fn connect(
     if one_strategy(cx).is_some() {
         return Some((l, film));
     }
-    let weight = mis_weight((cx, view, wl), (light, s), (camera, t), sampled.as_ref(), eta);
+    let weight = mis_weight((cx, view, wl), (light, s), (camera, t), sampled.as_ref(), (densities, eta));
     Some((l * weight, film))
 }
 
@@ -837,20 +844,15 @@ fn mis_weight(
     (light, s): (&[PathVertex], usize),
     (camera, t): (&[PathVertex], usize),
     sampled: Option<&PathVertex>,
-    eta: f32,
+    (densities, eta): (&mut PathDensities, f32),
 ) -> f32 {
     if s + t == 2 {
         return 1.0;
     }
-    // The densities this strategy sees, per vertex.
-    let mut cam = [Densities::default(); MAX_VERTICES];
-    let mut lig = [Densities::default(); MAX_VERTICES];
-    for (d, v) in cam.iter_mut().zip(&camera[..t]) {
-        *d = v.densities();
-    }
-    for (d, v) in lig.iter_mut().zip(&light[..s]) {
-        *d = v.densities();
-    }
+    // The densities this strategy sees, per vertex: the subpaths' own but at the
+    // connection's ends and their predecessors, which are put back afterwards.
+    let PathDensities { cam, lig, .. } = densities;
+    let kept = (cam[t - 1], cam[t.saturating_sub(2)], lig[s.saturating_sub(1)], lig[s.saturating_sub(2)]);
     let mut qs = (s > 0).then(|| &light[s - 1]);
     let mut pt = &camera[t - 1];
     if s == 1 {
@@ -892,7 +894,36 @@ fn mis_weight(
         _ => light[0].is_delta_light(),
     };
     let w = 1.0 / (1.0 + strategy_sum(&cam[..t], &lig[..s], origin_delta, eta));
+    // In this order, so that where two of them are one vertex its own comes back last.
+    (cam[t.saturating_sub(2)], lig[s.saturating_sub(2)]) = (kept.1, kept.3);
+    (cam[t - 1], lig[s.saturating_sub(1)]) = (kept.0, kept.2);
     if w.is_finite() { w } else { 0.0 }
+}
+
+/// Every vertex's densities of a sample's two subpaths, as its strategies' weights start
+/// from them (each then changes the few its connection changes, and puts them back), and
+/// room for the light subpath of a merge.
+struct PathDensities {
+    cam: [Densities; MAX_VERTICES],
+    lig: [Densities; MAX_VERTICES],
+    merged: [Densities; MAX_VERTICES],
+}
+
+impl PathDensities {
+    fn new(camera: &[PathVertex], light: &[PathVertex]) -> Self {
+        let mut d = PathDensities {
+            cam: [Densities::default(); MAX_VERTICES],
+            lig: [Densities::default(); MAX_VERTICES],
+            merged: [Densities::default(); MAX_VERTICES],
+        };
+        for (d, v) in d.cam.iter_mut().zip(camera) {
+            *d = v.densities();
+        }
+        for (d, v) in d.lig.iter_mut().zip(light) {
+            *d = v.densities();
+        }
+        d
+    }
 }
 
 /// The sum, over every strategy but the one whose subpaths end at `cam` and `lig`'s last
