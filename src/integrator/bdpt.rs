@@ -48,10 +48,14 @@ use crate::scene::{
     light::{Light, LightTarget},
 };
 use crate::spectrum::{Spectrum, Wavelengths};
+use arrayvec::ArrayVec;
 use glam::{UVec2, Vec2, Vec3};
 
 /// Most vertices a subpath keeps (its camera or light vertex and its bounces).
 pub(super) const MAX_VERTICES: usize = 34;
+
+/// A subpath's vertices, kept in place (no allocation per sample).
+pub(super) type Subpath<'a> = ArrayVec<PathVertex<'a>, MAX_VERTICES>;
 
 /// The deepest paths bidirectional estimators follow (`max_depth` beyond it is refused).
 pub const MAX_DEPTH: u32 = MAX_VERTICES as u32 - 2;
@@ -201,8 +205,7 @@ pub fn radiance(
 ) -> PathOutput {
     let mut out = PathOutput::default();
     let max = (cx.settings.max_depth as usize + 2).min(MAX_VERTICES);
-    let mut camera: Vec<PathVertex> = Vec::with_capacity(max);
-    let mut light: Vec<PathVertex> = Vec::with_capacity(max);
+    let (mut camera, mut light) = (Subpath::new(), Subpath::new());
     let mut aov = AovTrace::new(aovs);
     camera_subpath(cx, view, ray, sampler, max, &mut camera, (&mut out, &mut aov, wl));
     match merging {
@@ -341,7 +344,7 @@ fn camera_subpath<'a>(
     ray: Ray,
     sampler: &mut Sampler,
     max: usize,
-    path: &mut Vec<PathVertex<'a>>,
+    path: &mut Subpath<'a>,
     (out, aov, wl): (&mut PathOutput, &mut AovTrace, &mut Wavelengths),
 ) {
     let pdf_dir = view.rays.pdf_dir(ray.d);
@@ -355,7 +358,7 @@ pub(super) fn light_subpath<'a>(
     cx: Context<'a>,
     sampler: &mut Sampler,
     max: usize,
-    path: &mut Vec<PathVertex<'a>>,
+    path: &mut Subpath<'a>,
     (out, wl): (&mut PathOutput, &mut Wavelengths),
 ) {
     let (u_select, u_pos, u_dir) = (sampler.next_2d(), sampler.next_2d(), sampler.next_2d());
@@ -399,7 +402,7 @@ fn walk<'a>(
     mode: TransportMode,
     sampler: &mut Sampler,
     max: usize,
-    path: &mut Vec<PathVertex<'a>>,
+    path: &mut Subpath<'a>,
     (out, aov, wl): (&mut PathOutput, &mut AovTrace, &mut Wavelengths),
 ) {
     let Context { scene, settings } = cx;
@@ -596,10 +599,20 @@ fn surface_pdf(cx: Context, v: &Vertex, wo: Vec3, wi: Vec3, wl: &Wavelengths) ->
 
 /// f |cos| at `v` for light between world directions `wo` (back along the subpath) and `wi`
 /// (towards the connection), in `mode`, with the shading-normal correction for importance,
-/// at the wavelengths `wl`.
-fn surface_f(v: &Vertex, (wo, wi): (Vec3, Vec3), mode: TransportMode, wl: &Wavelengths) -> Spectrum {
-    let f = wl.reflectance(v.bsdf.eval(v.frame.to_local(wo), v.frame.to_local(wi), mode));
-    if mode == TransportMode::Importance { f * shading_correction(v, wo, wi) } else { f }
+/// at the wavelengths `wl`; and `surface_pdf` of the same directions, which the BSDF
+/// evaluates with f.
+fn surface_f(
+    cx: Context,
+    v: &Vertex,
+    (wo, wi): (Vec3, Vec3),
+    mode: TransportMode,
+    wl: &Wavelengths,
+) -> (Spectrum, f32) {
+    let (lo, li) = (v.frame.to_local(wo), v.frame.to_local(wi));
+    let (f, pdf) = v.bsdf.eval_pdf(lo, li, mode);
+    let pdf = if lo.z > 0.0 { pdf } else { surface_pdf(cx, v, wo, wi, wl) };
+    let f = wl.reflectance(f);
+    (if mode == TransportMode::Importance { f * shading_correction(v, wo, wi) } else { f }, pdf)
 }
 
 /// The density (per unit area at `next`, or per solid angle for light at infinity) with
@@ -695,6 +708,8 @@ fn connect(
     }
     let mut sampled: Option<PathVertex> = None;
     let mut film = None;
+    // The connection's ends' densities of each other's directions, where evaluating f gave them.
+    let mut known = (None, None);
     let l = if s == 0 {
         // The camera subpath found a light by itself.
         if !pt.is_light() {
@@ -722,7 +737,8 @@ fn connect(
         let pdf = dist2 / view.rays.cos(-wi);
         let camera_vertex =
             PathVertex::end(Kind::Camera, origin, Vec3::ZERO, Spectrum::splat(we / pdf), TransportMode::Radiance);
-        let f = vertex_f(qs, light.get(s.wrapping_sub(2)), wi, wl)?;
+        let (f, pdf_qs) = vertex_f(cx, qs, light.get(s.wrapping_sub(2)), wi, wl)?;
+        known = (None, Some(pdf_qs));
         let l = qs.beta * f * camera_vertex.beta;
         if l.is_black() {
             return None;
@@ -748,7 +764,8 @@ fn connect(
         let radiance = wl.illuminant(ls.radiance);
         let mut v = PathVertex::end(Kind::Light(light, pmf), p, n, radiance / ls.pdf, TransportMode::Importance);
         v.pdf_fwd = light_origin_density(cx, &v);
-        let f = vertex_f(pt, Some(&camera[t - 2]), ls.wi, wl)?;
+        let (f, pdf_pt) = vertex_f(cx, pt, Some(&camera[t - 2]), ls.wi, wl)?;
+        known = (Some(pdf_pt), None);
         let l = pt.beta * f * v.beta;
         if l.is_black() {
             return None;
@@ -765,8 +782,9 @@ fn connect(
         let d = qs.p - pt.p;
         let dist2 = d.length_squared();
         let w = d / dist2.sqrt();
-        let f_pt = vertex_f(pt, Some(&camera[t - 2]), w, wl)?;
-        let f_qs = vertex_f(qs, light.get(s.wrapping_sub(2)), -w, wl)?;
+        let (f_pt, pdf_pt) = vertex_f(cx, pt, Some(&camera[t - 2]), w, wl)?;
+        let (f_qs, pdf_qs) = vertex_f(cx, qs, light.get(s.wrapping_sub(2)), -w, wl)?;
+        known = (Some(pdf_pt), Some(pdf_qs));
         let l = qs.beta * f_qs * f_pt * pt.beta / dist2;
         if l.is_black() {
             return None;
@@ -783,7 +801,7 @@ fn connect(
     if one_strategy(cx).is_some() {
         return Some((l, film));
     }
-    let weight = mis_weight((cx, view, wl), (light, s), (camera, t), sampled.as_ref(), (densities, eta));
+    let weight = mis_weight((cx, view, wl), (light, s), (camera, t), (sampled.as_ref(), known), (densities, eta));
     Some((l * weight, film))
 }
 
@@ -795,14 +813,26 @@ fn one_strategy(cx: Context) -> Option<u32> {
 
 /// f |cos| at the surface vertex `v`, reached from `prev`, towards unit `w`, as its subpath
 /// carries light at the wavelengths `wl`; None where it is zero.
-fn vertex_f(v: &PathVertex, prev: Option<&PathVertex>, w: Vec3, wl: &Wavelengths) -> Option<Spectrum> {
+fn vertex_f(
+    cx: Context,
+    v: &PathVertex,
+    prev: Option<&PathVertex>,
+    w: Vec3,
+    wl: &Wavelengths,
+) -> Option<(Spectrum, f32)> {
     let wo = v.towards(prev?);
-    let f = match (v.kind, v.surface.as_ref()) {
-        (Kind::Medium(phase, _), _) => Spectrum::splat(phase.eval(wo, w)),
-        (_, Some(s)) => surface_f(s, (wo, w), v.mode, wl),
+    let (f, pdf) = match (v.kind, v.surface.as_ref()) {
+        (Kind::Medium(phase, _), _) => {
+            let p = phase.eval(wo, w);
+            (Spectrum::splat(p), p)
+        }
+        (_, Some(s)) => {
+            let (f, pdf) = surface_f(cx, s, (wo, w), v.mode, wl);
+            (f, pdf * v.survival)
+        }
         _ => return None,
     };
-    (!f.is_black()).then_some(f)
+    (!f.is_black()).then_some((f, pdf))
 }
 
 /// Transmittance of the segment from vertex `from` to `end` (`target`), or None if
@@ -843,7 +873,7 @@ fn mis_weight(
     (cx, view, wl): (Context, &View, &Wavelengths),
     (light, s): (&[PathVertex], usize),
     (camera, t): (&[PathVertex], usize),
-    sampled: Option<&PathVertex>,
+    (sampled, known): (Option<&PathVertex>, (Option<f32>, Option<f32>)),
     (densities, eta): (&mut PathDensities, f32),
 ) -> f32 {
     if s + t == 2 {
@@ -870,9 +900,10 @@ fn mis_weight(
         lig[s - 1].delta = false;
     }
     // pt's reverse density: qs sampling pt (or the light subpath starting at pt).
-    cam[t - 1].rev = match qs {
-        Some(q) => density((cx, view, wl), q, if s > 1 { Some(&light[s - 2]) } else { None }, pt),
-        None => light_origin_density(cx, pt),
+    cam[t - 1].rev = match (qs, known.1) {
+        (Some(q), Some(pdf)) => q.convert(pdf, pt),
+        (Some(q), None) => density((cx, view, wl), q, if s > 1 { Some(&light[s - 2]) } else { None }, pt),
+        (None, _) => light_origin_density(cx, pt),
     };
     // pt's predecessor, from pt.
     if t > 1 {
@@ -883,7 +914,10 @@ fn mis_weight(
     }
     if let Some(q) = qs {
         // qs's reverse density: pt sampling qs; and qs's predecessor, from qs.
-        lig[s - 1].rev = density((cx, view, wl), pt, if t > 1 { Some(&camera[t - 2]) } else { None }, q);
+        lig[s - 1].rev = match known.0 {
+            Some(pdf) => pt.convert(pdf, q),
+            None => density((cx, view, wl), pt, if t > 1 { Some(&camera[t - 2]) } else { None }, q),
+        };
         if s > 1 {
             lig[s - 2].rev = density((cx, view, wl), q, Some(pt), &light[s - 2]);
         }

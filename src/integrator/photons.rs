@@ -8,7 +8,7 @@
 //! sums, and the image, do not depend on the thread count.
 
 use super::Context;
-use super::bdpt::{PathVertex, light_subpath};
+use super::bdpt::{PathVertex, Subpath, light_subpath};
 use super::kernel::PathOutput;
 use crate::math::sampler::{PixelSequence, hash3};
 use crate::spectrum::{Spectrum, Wavelengths, sampled::Sampled};
@@ -105,7 +105,7 @@ impl Photons {
             .into_par_iter()
             .map(|y| {
                 let (mut row, mut out) = (Vec::new(), PathOutput::default());
-                let mut path = Vec::with_capacity(max);
+                let mut path = Subpath::new();
                 for x in 0..width {
                     path.clear();
                     let mut sampler = light_sampler(cx, UVec2::new(x, y), index);
