@@ -140,7 +140,7 @@ crate::params! {
         pixel_sampling: PixelSampling = PixelSampling::Random, ["pixel-sampling", "pixel sampling", Estimator, Domain::Choice(PixelSampling::CHOICES), always],
         /// Strata (and grid cells) per pixel axis for stratified and grid pixel sampling.
         strata: u32 = 4, ["strata", "strata per axis", Estimator, int(1, 64), |s| s.pixel_sampling != PixelSampling::Random],
-        /// Directly seen emitters' edges by their exact pixel coverage, a control variate (`integrator::edges`; path tracing, random or stratified pixels, no clamp).
+        /// Directly seen emitters' edges by their exact pixel coverage, a control variate (`integrator::edges`; path tracing, BDPT and VCM; random or stratified pixels, no clamp).
         light_edges: bool = true, ["light-edges", "seen lights' edges by exact coverage", Estimator, Domain::Switch, Settings::edges_fit],
         /// Firefly clamp on a sample's largest component (biased; off unless given).
         firefly_clamp: Option<f32> = None, ["clamp", "firefly clamp (biased)", Estimator, Domain::Float { min: 1e-6, max: f32::MAX, optional: true }, always],
