@@ -811,8 +811,9 @@ fn one_strategy(cx: Context) -> Option<u32> {
     cx.settings.strategy.filter(|_| cx.settings.integrator == Integrator::Bdpt)
 }
 
-/// f |cos| at the surface vertex `v`, reached from `prev`, towards unit `w`, as its subpath
-/// carries light at the wavelengths `wl`; None where it is zero.
+/// f |cos| at the surface or medium vertex `v`, reached from `prev`, towards unit `w`, as its
+/// subpath carries light at the wavelengths `wl`, and the density (per solid angle, its
+/// survival included) with which `v` samples `w` from there; None where f is zero.
 fn vertex_f(
     cx: Context,
     v: &PathVertex,
@@ -928,9 +929,9 @@ fn mis_weight(
         _ => light[0].is_delta_light(),
     };
     let w = 1.0 / (1.0 + strategy_sum(&cam[..t], &lig[..s], origin_delta, eta));
-    // In this order, so that where two of them are one vertex its own comes back last.
-    (cam[t.saturating_sub(2)], lig[s.saturating_sub(2)]) = (kept.1, kept.3);
-    (cam[t - 1], lig[s.saturating_sub(1)]) = (kept.0, kept.2);
+    // Each was kept before any changed, so where two are one vertex both put back the same.
+    (cam[t - 1], cam[t.saturating_sub(2)]) = (kept.0, kept.1);
+    (lig[s.saturating_sub(1)], lig[s.saturating_sub(2)]) = (kept.2, kept.3);
     if w.is_finite() { w } else { 0.0 }
 }
 
